@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Set up sfa-gym on a fresh Debian/Ubuntu machine: the system libraries for headless
+# rendering (EGL, OSMesa fallback), a virtual environment in .venv, and the package.
+#
+#   bash scripts/setup.sh          the library and its command line (sfa-gym)
+#   bash scripts/setup.sh test     also the test dependencies (pytest, hypothesis,
+#                                  stable-baselines3, MDP)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+extras="${1:-}"
+gl_packages="libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6"
+
+missing=""
+if command -v dpkg-query >/dev/null; then
+    for p in $gl_packages; do
+        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
+    done
+fi
+if [ -n "$missing" ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        echo "installing headless OpenGL libraries:$missing"
+        export DEBIAN_FRONTEND=noninteractive
+        apt-get update -qq
+        apt-get install -y -qq --no-install-recommends $missing >/dev/null
+    elif command -v sudo >/dev/null && sudo -n true 2>/dev/null; then
+        sudo apt-get update -qq
+        sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $missing >/dev/null
+    else
+        echo "warning: missing headless OpenGL libraries:$missing" >&2
+        echo "         ask an administrator to run: apt-get install$missing" >&2
+        echo "         (or point MUJOCO_GL at a GL backend that works on this machine)" >&2
+    fi
+fi
+
+python="${PYTHON:-python3}"
+if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 11))'; then
+    echo "error: sfa-gym needs Python >= 3.11; $python is $("$python" --version 2>&1)." >&2
+    echo "       set PYTHON=/path/to/python3.11 and run again" >&2
+    exit 1
+fi
+[ -x .venv/bin/python ] || "$python" -m venv .venv
+.venv/bin/python -m pip install -q --upgrade pip
+if [ -n "$extras" ]; then
+    .venv/bin/python -m pip install -q -e ".[$extras]"
+else
+    .venv/bin/python -m pip install -q -e .
+fi
+echo "sfa-gym is set up in .venv ($(.venv/bin/python -c 'import sfa_gym; print(sfa_gym.__version__)'))"
