@@ -1,0 +1,71 @@
+"""Packaging, headless GL selection and small library utilities."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sfa_gym import gl
+from sfa_gym.ordering import grid_order, hilbert_index
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_wheel_ships_world_data_and_no_generic_top_level_modules(tmp_path):
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(ROOT)],
+        check=True,
+    )
+    (wheel,) = tmp_path.glob("sfa_gym-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    top_level = {name.split("/")[0] for name in names}
+    assert not top_level & {"envs", "baselines", "eval", "tests"}, top_level
+    assert "sfa_gym/envs_data/paper_sim.json" in names
+    assert "sfa_gym/py.typed" in names
+
+
+def test_gl_error_names_the_debian_packages(monkeypatch):
+    monkeypatch.delenv("MUJOCO_GL", raising=False)
+    monkeypatch.setattr(gl, "_loads", lambda names: False)
+    with pytest.raises(gl.HeadlessGLError, match="libegl1.*libosmesa6"):
+        gl.configure()
+
+
+def test_gl_falls_back_to_osmesa_when_egl_is_missing(monkeypatch):
+    monkeypatch.delenv("MUJOCO_GL", raising=False)
+    monkeypatch.setattr(gl, "_loads", lambda names: names[0] == "OSMesa")
+    assert gl.configure() == "osmesa"
+
+
+def test_gl_respects_the_users_choice(monkeypatch):
+    monkeypatch.setenv("MUJOCO_GL", "egl")
+    assert gl.configure() == "egl"
+
+
+@pytest.mark.parametrize("order", [1, 3, 5])
+def test_hilbert_curve_visits_every_cell_once_in_unit_steps(order):
+    n = 1 << order
+    rows, cols = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    cells = np.stack([rows.ravel(), cols.ravel()], axis=1)
+    assert sorted(hilbert_index(cells[:, 0], cells[:, 1], order)) == list(range(n * n))
+    path = cells[grid_order(cells)]
+    assert np.abs(np.diff(path, axis=0)).sum(axis=1).max() == 1
+
+
+def test_serpentine_alternates_direction():
+    rows, cols = np.meshgrid(np.arange(3), np.arange(4), indexing="ij")
+    cells = np.stack([rows.ravel(), cols.ravel()], axis=1)
+    path = cells[grid_order(cells, kind="serpentine")]
+    assert path[:5].tolist() == [[0, 0], [0, 1], [0, 2], [0, 3], [1, 3]]
+
+
+def test_grid_order_rejects_bad_input():
+    with pytest.raises(ValueError, match="kind"):
+        grid_order(np.zeros((3, 2), dtype=int), kind="zigzag")
+    with pytest.raises(ValueError, match=r"\(N, 2\)"):
+        grid_order(np.zeros((3, 3), dtype=int))
