@@ -1,0 +1,392 @@
+"""Recorded runs: record/load roundtrip, interrupted recordings resume exactly, damaged files."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from sfa_gym.drivers import GridPositions, LawnMowerDriver, RandomWalkDriver
+from sfa_gym.runs import (
+    ReplayMismatchError,
+    RunFormatError,
+    RunMismatchError,
+    load_run,
+    record,
+)
+
+
+class TinyRover(gym.Env):
+    """A 2 m x 2 m arena, unicycle with first-order velocity lag, 4x24 synthetic panoramas.
+
+    Column c looks at azimuth yaw + 2*pi*c/W; its colour encodes the distance to the wall in
+    that direction, so panoramas depend on position and rotate with yaw like the real env's.
+    """
+
+    metadata = {"render_modes": []}
+    arena_bounds = (-1.0, 1.0, -1.0, 1.0)
+    dt = 0.1
+
+    def __init__(self, lag: float = 0.5) -> None:
+        self.lag = lag
+        self.observation_space = gym.spaces.Box(0, 255, (4, 24, 3), np.uint8)
+        self.action_space = gym.spaces.Box(
+            np.array([-0.4, -1.0], np.float32), np.array([0.4, 1.0], np.float32)
+        )
+
+    def grid_positions(self, n: int = 30) -> np.ndarray:
+        g = np.linspace(-0.8, 0.8, n)
+        gx, gy = np.meshgrid(g, g)
+        return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+    def _obs(self) -> np.ndarray:
+        az = self.yaw + 2 * np.pi * np.arange(24) / 24
+        c, s = np.cos(az), np.sin(az)
+        with np.errstate(divide="ignore"):
+            tx = np.where(c > 0, (1 - self.x) / c, np.where(c < 0, (-1 - self.x) / c, np.inf))
+            ty = np.where(s > 0, (1 - self.y) / s, np.where(s < 0, (-1 - self.y) / s, np.inf))
+        d = np.minimum(tx, ty)
+        rows = np.arange(4)[:, None]
+        red = np.clip(d * 100, 0, 255)[None, :] + 0 * rows
+        green = np.clip(128 + 60 * np.sign(c), 0, 255)[None, :] + 10 * rows
+        blue = np.full((4, 24), 40.0) + self.noise
+        return np.stack([red, green, blue], axis=-1).astype(np.uint8)
+
+    def _info(self) -> dict:
+        return {"x": self.x, "y": self.y, "yaw": self.yaw}
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        pose = (options or {}).get("pose", (0.0, 0.0, 0.0))
+        self.x, self.y, self.yaw = (float(p) for p in pose)
+        self.v = self.w = 0.0
+        self.noise = float(self.np_random.integers(0, 10))  # seeded randomness, as a real env has
+        return self._obs(), self._info()
+
+    def step(self, action):
+        v, w = np.clip(action, self.action_space.low, self.action_space.high)
+        self.v += (float(v) - self.v) * self.lag
+        self.w += (float(w) - self.w) * self.lag
+        self.x = float(np.clip(self.x + self.v * math.cos(self.yaw) * self.dt, -1, 1))
+        self.y = float(np.clip(self.y + self.v * math.sin(self.yaw) * self.dt, -1, 1))
+        self.yaw = (self.yaw + self.w * self.dt + math.pi) % (2 * math.pi) - math.pi
+        return self._obs(), 0.0, False, False, self._info()
+
+
+def _mower() -> LawnMowerDriver:
+    return LawnMowerDriver(spacing=0.4, margin=0.3, pattern="rows", spin=math.pi)
+
+
+def _rollout(env: gym.Env, driver, n: int, seed: int):
+    """The samples record() must store, computed independently of it."""
+    driver.reset(env.unwrapped.arena_bounds, dt=env.unwrapped.dt, seed=seed)
+    obs, info = env.reset(seed=seed, options={"pose": driver.start_pose})
+    frames, poses, actions = [obs], [(info["x"], info["y"], info["yaw"])], [np.zeros(2)]
+    while len(frames) < n and not driver.done:
+        action = driver(info)
+        obs, _, _, _, info = env.step(action)
+        frames.append(obs)
+        poses.append((info["x"], info["y"], info["yaw"]))
+        actions.append(action)
+    return np.array(frames), np.array(poses), np.array(actions, dtype=np.float32)
+
+
+def _assert_same_run(a, b) -> None:
+    np.testing.assert_array_equal(np.asarray(a.panoramas), np.asarray(b.panoramas))
+    for name in ("poses", "time", "actions"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+        assert getattr(a, name).dtype == getattr(b, name).dtype
+
+
+class Interrupt(Exception):
+    pass
+
+
+def _stop_after(n_samples: int):
+    def on_chunk(n: int) -> None:
+        if n >= n_samples:
+            raise KeyboardInterrupt
+
+    return on_chunk
+
+
+# ------------------------------------------------------------------------ roundtrip
+
+
+@pytest.mark.parametrize("compress", [False, True])
+def test_record_load_roundtrip_equals_an_independent_rollout(tmp_path, compress):
+    run = record(
+        TinyRover(), _mower(), tmp_path / "a.run", n_steps=23, chunk_size=5, seed=3,
+        compress=compress, progress=False,
+    )  # fmt: skip
+    frames, poses, actions = _rollout(TinyRover(), _mower(), 23, seed=3)
+    loaded = load_run(tmp_path / "a.run")
+    for r in (run, loaded):
+        assert len(r) == 23 and r.complete and r.metadata["end_reason"] == "n_steps"
+        np.testing.assert_array_equal(np.asarray(r.panoramas), frames)
+        np.testing.assert_array_equal(r.poses, poses)
+        np.testing.assert_array_equal(r.actions, actions)
+        np.testing.assert_allclose(r.time, np.arange(23) * 0.1)
+        assert r.panoramas.shape == (23, 4, 24, 3) and r.panoramas.dtype == np.uint8
+        assert r.poses.dtype == np.float64 and r.actions.dtype == np.float32
+    header = json.loads((tmp_path / "a.run" / "run.json").read_text())
+    assert header["format"] == "sfa-gym-run" and header["version"] == 1
+    assert [c["n"] for c in header["chunks"]] == [5, 5, 5, 5, 3]
+    assert header["driver"]["type"] == "LawnMowerDriver" and header["seed"] == 3
+    # no temporaries left behind; chunks are plain npz without pickles
+    assert sorted(p.name for p in (tmp_path / "a.run").iterdir()) == [
+        *(f"chunk-{i:05d}.npz" for i in range(5)),
+        "run.json",
+    ]
+    with np.load(tmp_path / "a.run" / "chunk-00004.npz", allow_pickle=False) as npz:
+        np.testing.assert_array_equal(npz["poses"], poses[20:])
+
+
+def test_panoramas_index_like_an_array(tmp_path):
+    run = record(
+        TinyRover(), _mower(), tmp_path / "a.run", n_steps=17, chunk_size=4, progress=False
+    )
+    full = np.asarray(run.panoramas)
+    p = run.panoramas
+    np.testing.assert_array_equal(p[5], full[5])
+    np.testing.assert_array_equal(p[-1], full[-1])
+    np.testing.assert_array_equal(p[3:14:3], full[3:14:3])
+    np.testing.assert_array_equal(p[[16, 0, 7, 7]], full[[16, 0, 7, 7]])
+    mask = np.arange(17) % 3 == 0
+    np.testing.assert_array_equal(p[mask], full[mask])
+    np.testing.assert_array_equal(p[2:9, 1, :5], full[2:9, 1, :5])
+    np.testing.assert_array_equal(np.stack(list(p)), full)
+    with pytest.raises(IndexError, match="17"):
+        p[17]
+
+
+def test_driver_done_ends_the_run(tmp_path):
+    driver = LawnMowerDriver(spacing=1.0, margin=0.5, pattern="rows")
+    run = record(TinyRover(), driver, tmp_path / "d.run", chunk_size=50, progress=False)
+    assert run.complete and run.metadata["end_reason"] == "driver_done" and driver.done
+    assert 20 < len(run) < 1000
+
+
+# --------------------------------------------------------------------------- resume
+
+
+@pytest.mark.parametrize("stop_at", [5, 10])
+def test_interrupted_recording_resumes_to_the_same_arrays(tmp_path, stop_at):
+    reference = record(
+        TinyRover(), _mower(), tmp_path / "ref.run", n_steps=23, chunk_size=5, seed=1,
+        progress=False,
+    )  # fmt: skip
+    out = tmp_path / "cut.run"
+    with pytest.raises(KeyboardInterrupt):
+        record(
+            TinyRover(), _mower(), out, n_steps=23, chunk_size=5, seed=1, progress=False,
+            on_chunk=_stop_after(stop_at),
+        )  # fmt: skip
+    partial = load_run(out)
+    assert not partial.complete and len(partial) == stop_at
+    # a fresh env and driver: the state is rebuilt by replaying the stored actions
+    resumed = record(TinyRover(), _mower(), out, n_steps=23, chunk_size=5, seed=1, progress=False)
+    assert resumed.complete
+    _assert_same_run(resumed, reference)
+
+
+def test_interrupt_between_chunks_keeps_the_buffered_samples(tmp_path):
+    env = TinyRover()
+    steps = []
+
+    def failing_step(action):
+        if len(steps) == 7:
+            raise Interrupt  # e.g. the renderer dies in the middle of a chunk
+        steps.append(action)
+        return TinyRover.step(env, action)
+
+    env.step = failing_step
+    driver = RandomWalkDriver(speed=0.3, margin=0.3)
+    with pytest.raises(Interrupt):
+        record(env, driver, tmp_path / "r.run", n_steps=20, chunk_size=5, progress=False)
+    assert len(load_run(tmp_path / "r.run")) == 8  # reset + 7 steps, the last 3 flushed
+    resumed = record(
+        TinyRover(), RandomWalkDriver(speed=0.3, margin=0.3), tmp_path / "r.run", n_steps=20,
+        chunk_size=5, progress=False,
+    )  # fmt: skip
+    reference = record(
+        TinyRover(), RandomWalkDriver(speed=0.3, margin=0.3), tmp_path / "ref.run", n_steps=20,
+        chunk_size=5, progress=False,
+    )  # fmt: skip
+    _assert_same_run(resumed, reference)
+
+
+def test_pose_list_run_resumes_to_the_same_arrays(tmp_path):
+    grid = GridPositions(n=4, seed=2, order="hilbert")
+    reference = record(TinyRover(), grid, tmp_path / "ref.run", chunk_size=3, progress=False)
+    assert len(reference) == 16 and reference.metadata["kind"] == "poses"
+    np.testing.assert_allclose(reference.poses, grid.poses(TinyRover()))
+    np.testing.assert_array_equal(reference.actions, 0)
+    with pytest.raises(KeyboardInterrupt):
+        record(
+            TinyRover(), grid, tmp_path / "cut.run", chunk_size=3, progress=False,
+            on_chunk=_stop_after(6),
+        )  # fmt: skip
+    resumed = record(TinyRover(), grid, tmp_path / "cut.run", chunk_size=3, progress=False)
+    _assert_same_run(resumed, reference)
+
+
+def test_complete_run_is_returned_not_rerecorded(tmp_path):
+    first = record(TinyRover(), _mower(), tmp_path / "a.run", n_steps=6, progress=False)
+    mtime = (tmp_path / "a.run" / "chunk-00000.npz").stat().st_mtime_ns
+    again = record(TinyRover(), _mower(), tmp_path / "a.run", n_steps=6, progress=False)
+    _assert_same_run(first, again)
+    assert (tmp_path / "a.run" / "chunk-00000.npz").stat().st_mtime_ns == mtime
+
+
+def test_resume_with_other_settings_is_refused(tmp_path):
+    out = tmp_path / "a.run"
+    with pytest.raises(KeyboardInterrupt):
+        record(
+            TinyRover(), _mower(), out, n_steps=20, chunk_size=5, seed=0, progress=False,
+            on_chunk=_stop_after(5),
+        )  # fmt: skip
+    with pytest.raises(RunMismatchError, match=r"seed: stored 0, requested 1"):
+        record(TinyRover(), _mower(), out, n_steps=20, chunk_size=5, seed=1, progress=False)
+    with pytest.raises(RunMismatchError, match="spacing"):
+        record(
+            TinyRover(), LawnMowerDriver(spacing=0.5, margin=0.3, pattern="rows", spin=math.pi),
+            out, n_steps=20, chunk_size=5, progress=False,
+        )  # fmt: skip
+    # overwrite starts afresh
+    run = record(TinyRover(), _mower(), out, n_steps=8, seed=1, overwrite=True, progress=False)
+    assert run.complete and len(run) == 8 and run.metadata["seed"] == 1
+
+
+def test_resume_detects_non_deterministic_physics(tmp_path):
+    out = tmp_path / "a.run"
+    with pytest.raises(KeyboardInterrupt):
+        record(
+            TinyRover(), _mower(), out, n_steps=20, chunk_size=5, progress=False,
+            on_chunk=_stop_after(10),
+        )  # fmt: skip
+    # the same settings as far as the header can tell, but other dynamics
+    with pytest.raises(ReplayMismatchError, match="not deterministic"):
+        record(TinyRover(lag=0.3), _mower(), out, n_steps=20, chunk_size=5, progress=False)
+
+
+def test_bad_arguments_are_refused(tmp_path):
+    with pytest.raises(ValueError, match=r"'<name>\.run'"):
+        record(TinyRover(), _mower(), tmp_path / "a", n_steps=5, progress=False)
+    with pytest.raises(ValueError, match="never finishes"):
+        record(TinyRover(), RandomWalkDriver(), tmp_path / "a.run", progress=False)
+    with pytest.raises(ValueError, match="chunk_size"):
+        record(TinyRover(), _mower(), tmp_path / "a.run", n_steps=5, chunk_size=0)
+    with pytest.raises(TypeError, match="driver"):
+        record(TinyRover(), object(), tmp_path / "a.run", n_steps=5)
+
+
+# ------------------------------------------------------------------ damaged files
+
+
+@pytest.fixture
+def small_run(tmp_path):
+    record(TinyRover(), _mower(), tmp_path / "a.run", n_steps=12, chunk_size=5, progress=False)
+    return tmp_path / "a.run"
+
+
+def test_truncated_chunk_is_named(small_run):
+    chunk = small_run / "chunk-00001.npz"
+    data = chunk.read_bytes()
+    chunk.write_bytes(data[: len(data) // 2])
+    with pytest.raises(RunFormatError, match=r"chunk-00001\.npz.*(damaged|truncated)"):
+        load_run(small_run)
+
+
+def test_missing_chunk_is_named(small_run):
+    (small_run / "chunk-00002.npz").unlink()
+    with pytest.raises(RunFormatError, match=r"chunk-00002\.npz is missing"):
+        load_run(small_run)
+
+
+def test_foreign_npz_is_named(small_run):
+    np.savez(small_run / "chunk-00000.npz", weights=np.zeros(3))
+    with pytest.raises(RunFormatError, match=r"chunk-00000\.npz is not a sfa-gym run chunk"):
+        load_run(small_run)
+
+
+def test_chunk_with_wrong_shape_is_named(small_run):
+    good = dict(np.load(small_run / "chunk-00000.npz"))
+    good["poses"] = good["poses"][:, :2]
+    np.savez(small_run / "chunk-00000.npz", **good)
+    with pytest.raises(RunFormatError, match=r"chunk-00000\.npz: array 'poses' has shape"):
+        load_run(small_run)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('{"format": "other-tool", "version": 1}', "not a 'sfa-gym-run' header"),
+        ("[1, 2, 3]", "not a 'sfa-gym-run' header"),
+        ("{not json", "not valid JSON"),
+        ('{"format": "sfa-gym-run", "version": 2}', "format version 2"),
+        ('{"format": "sfa-gym-run", "version": 1, "chunks": {}}', "lacks a valid 'chunks'"),
+    ],
+)
+def test_foreign_header_is_named(small_run, text, message):
+    (small_run / "run.json").write_text(text)
+    with pytest.raises(RunFormatError, match=rf"run\.json.*{message}|{message}.*run\.json"):
+        load_run(small_run)
+
+
+def test_missing_header_and_directory(tmp_path, small_run):
+    shutil.copytree(small_run, tmp_path / "copy.run")
+    (tmp_path / "copy.run" / "run.json").unlink()
+    with pytest.raises(RunFormatError, match="run.json is missing"):
+        load_run(tmp_path / "copy.run")
+    with pytest.raises(FileNotFoundError, match="nothing.run"):
+        load_run(tmp_path / "nothing.run")
+
+
+# ------------------------------------------------------------------- the real env
+
+ENV_ID = "sfa_gym/OmniRover-v0"
+
+
+def _real_mower() -> LawnMowerDriver:
+    return LawnMowerDriver(spacing=1.0, pattern="rows")
+
+
+def test_real_env_run_resumes_to_the_same_arrays(tmp_path):
+    import sfa_gym  # noqa: F401  (registers the envs)
+
+    settings = dict(n_steps=12, chunk_size=5, seed=2, progress=False)
+    reference = record(ENV_ID, _real_mower(), tmp_path / "ref.run", **settings)
+    with pytest.raises(KeyboardInterrupt):
+        record(ENV_ID, _real_mower(), tmp_path / "cut.run", on_chunk=_stop_after(5), **settings)
+    resumed = record(ENV_ID, _real_mower(), tmp_path / "cut.run", **settings)
+    _assert_same_run(resumed, reference)
+    meta = reference.metadata
+    assert meta["env_id"] == ENV_ID and meta["world"] == "paper_sim" and meta["world_seed"] == 0
+    assert meta["panorama"]["width"] == 350 and meta["shape"] == [40, 350, 3]
+    assert meta["dt"] == 0.1 and len(meta["arena_bounds"]) == 4
+    np.testing.assert_allclose(reference.time, np.arange(12) * 0.1, atol=1e-9)
+    assert reference.panoramas[11].std() > 10  # a rendered scene, not a blank image
+    # the rover moved along the first row
+    assert reference.poses[-1, 0] - reference.poses[0, 0] > 0.2
+
+
+def test_real_env_pose_list_run(tmp_path):
+    import sfa_gym  # noqa: F401
+
+    grid = GridPositions(n=2, seed=0)
+    run = record(ENV_ID, grid, tmp_path / "grid.run", chunk_size=3, progress=False)
+    env = gym.make(ENV_ID)
+    expected = grid.poses(env)
+    obs, _ = env.reset(seed=0, options={"pose": tuple(expected[1])})
+    env.close()
+    assert len(run) == 4 and run.metadata["end_reason"] == "driver_done"
+    np.testing.assert_allclose(run.poses[:, :2], expected[:, :2], atol=1e-6)
+    np.testing.assert_allclose(
+        np.angle(np.exp(1j * (run.poses[:, 2] - expected[:, 2]))), 0, atol=1e-6
+    )
+    np.testing.assert_array_equal(run.panoramas[1], obs)
