@@ -1,0 +1,45 @@
+"""Localization: regression from features to metres, metrics, plots and feature methods."""
+
+from __future__ import annotations
+
+from sfa_gym.localization.methods import FeatureMethod, MethodFactory, load_method_file
+from sfa_gym.localization.metrics import (
+    MAE,
+    SplitMAE,
+    eta,
+    eta_phi,
+    eta_r,
+    fit_predict,
+    mae,
+    predict_locations,
+    random_split_mae,
+    train_test_mae,
+)
+from sfa_gym.localization.regression import (
+    KNNRegressor,
+    LinearRegressor,
+    QuadraticRidge,
+    make_regressor,
+)
+
+# plots is not imported here: it pulls in matplotlib, which metrics users need not pay for.
+
+__all__ = [
+    "MAE",
+    "FeatureMethod",
+    "KNNRegressor",
+    "LinearRegressor",
+    "MethodFactory",
+    "QuadraticRidge",
+    "SplitMAE",
+    "eta",
+    "eta_phi",
+    "eta_r",
+    "fit_predict",
+    "load_method_file",
+    "mae",
+    "make_regressor",
+    "predict_locations",
+    "random_split_mae",
+    "train_test_mae",
+]

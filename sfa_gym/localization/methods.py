@@ -1,0 +1,211 @@
+"""Feature methods for the localization leaderboard, and loading them from plug-in files.
+
+A *feature method* turns panoramic views into feature vectors; a regression from
+:mod:`sfa_gym.localization.regression` then maps the features to metres. It is any object with
+
+- ``name: str``: the leaderboard label;
+- ``fit(views (N, H, W, 3) uint8, sequence_ids=None) -> self``: unsupervised fit; the row order
+  of ``views`` is the time order of the training run (what SFA learns from); ``sequence_ids``
+  ``(N,)`` optionally marks separate sequences, for methods that care;
+- ``transform(views (N, H, W, 3) uint8) -> (N, k) float``;
+
+and, optionally, ``regressor: str``, the regression it is meant to be paired with (a name for
+:func:`~sfa_gym.localization.regression.make_regressor`), and after ``fit`` ``input_shape_``
+``(H, W, 3)``, which makes a fitted method usable as a feature model in
+:class:`sfa_gym.wrappers.SlowFeatureObservation`.
+
+Methods live in plug-in files (the repository's ``baselines/*.py``), loaded by path with
+:func:`load_method_file`, so that ``sfa_gym`` never imports them as a package. A plug-in file
+defines at module level either ``make_method(**kwargs)`` or ``METHOD`` (a class called with the
+keyword arguments), and, by convention, a frozen dataclass ``Args`` of its arguments with a
+docstring under each field.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import hashlib
+import importlib.util
+import sys
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "Argument",
+    "FeatureMethod",
+    "MethodFactory",
+    "check_views",
+    "iter_chunks",
+    "list_method_files",
+    "load_method_file",
+]
+
+
+@runtime_checkable
+class FeatureMethod(Protocol):
+    """Panoramic views in, feature vectors out (see the module docstring)."""
+
+    name: str
+
+    def fit(
+        self, views: NDArray[np.uint8], sequence_ids: NDArray[np.integer] | None = None
+    ) -> FeatureMethod: ...
+
+    def transform(self, views: NDArray[np.uint8]) -> NDArray[np.floating]: ...
+
+
+def check_views(views: Any, name: str = "views") -> NDArray[np.uint8]:
+    """Validate a stack of views: ``(N, H, W, 3)`` uint8 with ``N >= 1``; returns it as an array.
+
+    A single ``(H, W, 3)`` view is refused (say ``view[None]``) rather than guessed at.
+    """
+    array = np.asarray(views)
+    if array.dtype != np.uint8:
+        raise TypeError(f"{name} must be uint8 RGB images, got dtype {array.dtype}")
+    if array.ndim == 3 and array.shape[-1] == 3:
+        raise ValueError(
+            f"{name} must be a stack (N, H, W, 3), got one view of shape {array.shape}; "
+            "pass view[None]"
+        )
+    if array.ndim != 4 or array.shape[-1] != 3 or 0 in array.shape:
+        raise ValueError(
+            f"{name} must have shape (N, H, W, 3) with N, H, W >= 1, got {array.shape}"
+        )
+    return array
+
+
+def iter_chunks(n: int, chunk: int) -> Iterator[slice]:
+    """Slices ``[0, chunk), [chunk, 2 chunk), ...`` covering ``range(n)``."""
+    for start in range(0, n, chunk):
+        yield slice(start, min(start + chunk, n))
+
+
+@dataclass(frozen=True)
+class Argument:
+    """One field of a method's ``Args`` dataclass: its type (as written), default and docstring."""
+
+    name: str
+    type: str
+    default: Any
+    doc: str
+
+
+@dataclass(frozen=True)
+class MethodFactory:
+    """A loaded plug-in file: call it with keyword arguments to get a fresh feature method.
+
+    Attributes:
+        name: The file's stem (e.g. ``"band_means"``).
+        path: The plug-in file.
+        make: The file's ``make_method`` (or ``METHOD``).
+        args_type: The file's ``Args`` dataclass, or None if it has none.
+    """
+
+    name: str
+    path: Path
+    make: Callable[..., Any]
+    args_type: type | None
+
+    def __call__(self, **kwargs: Any) -> FeatureMethod:
+        method = self.make(**kwargs)
+        wrong = [a for a in ("fit", "transform") if not callable(getattr(method, a, None))]
+        if not isinstance(getattr(method, "name", None), str):
+            wrong.insert(0, "name")
+        if wrong:
+            raise TypeError(
+                f"{self.path} made {method!r}, which is not a feature method: it needs "
+                f"name: str, fit(views) and transform(views) (missing or wrong: {wrong})"
+            )
+        return method
+
+    def arguments(self) -> list[Argument]:
+        """The fields of ``Args`` with their docstrings (empty without an ``Args`` dataclass)."""
+        if self.args_type is None:
+            return []
+        docs = _field_docstrings(self.path, self.args_type.__name__)
+        out = []
+        for field in dataclasses.fields(self.args_type):
+            if field.default is not dataclasses.MISSING:
+                default = field.default
+            elif field.default_factory is not dataclasses.MISSING:
+                default = field.default_factory()
+            else:
+                default = dataclasses.MISSING
+            out.append(Argument(field.name, str(field.type), default, docs.get(field.name, "")))
+        return out
+
+
+def _field_docstrings(path: Path, class_name: str) -> dict[str, str]:
+    """Docstrings written under the fields of ``class_name`` (a string after ``x: int = 1``)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    for node in tree.body:
+        if isinstance(node, ast.ClassDef) and node.name == class_name:
+            docs: dict[str, str] = {}
+            body = node.body
+            for statement, following in zip(body, body[1:], strict=False):
+                if (
+                    isinstance(statement, ast.AnnAssign)
+                    and isinstance(statement.target, ast.Name)
+                    and isinstance(following, ast.Expr)
+                    and isinstance(following.value, ast.Constant)
+                    and isinstance(following.value.value, str)
+                ):
+                    docs[statement.target.id] = " ".join(following.value.value.split())
+            return docs
+    return {}
+
+
+def _import_file(path: Path) -> ModuleType:
+    # A name unique per file keeps two plug-ins with the same stem (or a plug-in named like an
+    # installed module) from replacing each other in sys.modules.
+    digest = hashlib.sha1(str(path).encode()).hexdigest()[:10]
+    module_name = f"sfa_gym_plugin_{path.stem}_{digest}"
+    spec = importlib.util.spec_from_file_location(module_name, path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"cannot load {path} as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    # Registered before executing: dataclasses look their module up in sys.modules.
+    sys.modules[module_name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[module_name]
+        raise
+    return module
+
+
+def load_method_file(path: str | Path) -> MethodFactory:
+    """Load a feature-method plug-in file by path (e.g. ``baselines/band_means.py``).
+
+    Returns a :class:`MethodFactory`; ``factory(**kwargs)`` builds a fresh method.
+    """
+    path = Path(path).resolve()
+    if not path.is_file():
+        raise FileNotFoundError(f"no feature-method file at {path}")
+    if path.suffix != ".py":
+        raise ValueError(f"a feature-method file must be a .py file, got {path}")
+    module = _import_file(path)
+    make = getattr(module, "make_method", None) or getattr(module, "METHOD", None)
+    if make is None or not callable(make):
+        raise TypeError(
+            f"{path} defines neither make_method(**kwargs) nor a METHOD class at module level"
+        )
+    args_type = getattr(module, "Args", None)
+    if args_type is not None and not dataclasses.is_dataclass(args_type):
+        args_type = None
+    return MethodFactory(name=path.stem, path=path, make=make, args_type=args_type)
+
+
+def list_method_files(directory: str | Path) -> list[Path]:
+    """The plug-in files of a directory: ``*.py`` not starting with ``_``, sorted by name."""
+    directory = Path(directory)
+    if not directory.is_dir():
+        raise FileNotFoundError(f"no directory {directory}")
+    return sorted(p for p in directory.glob("*.py") if not p.name.startswith("_"))

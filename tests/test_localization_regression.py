@@ -1,0 +1,194 @@
+"""Regressions from features to positions: known-answer recovery and input validation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sfa_gym.localization.regression import (
+    KNNRegressor,
+    LinearRegressor,
+    NotFittedError,
+    QuadraticRidge,
+    make_regressor,
+    quadratic_expansion,
+)
+
+
+def _data(n: int = 200, k: int = 3, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    return rng.normal(size=(n, k)), rng
+
+
+def test_linear_recovers_an_affine_map_exactly():
+    x, rng = _data()
+    a = rng.normal(size=(3, 2))
+    b = np.array([1.5, -2.0])
+    model = LinearRegressor().fit(x, x @ a + b)
+    np.testing.assert_allclose(model.coef_, a, atol=1e-10)
+    np.testing.assert_allclose(model.intercept_, b, atol=1e-10)
+    x_new, _ = _data(50, seed=1)
+    np.testing.assert_allclose(model.predict(x_new), x_new @ a + b, atol=1e-10)
+
+
+def test_linear_matches_lstsq_with_an_intercept_column_on_noisy_data():
+    x, rng = _data()
+    y = rng.normal(size=(200, 2))
+    design = np.column_stack([x, np.ones(len(x))])
+    expected = design @ np.linalg.lstsq(design, y, rcond=None)[0]
+    np.testing.assert_allclose(LinearRegressor().fit(x, y).predict(x), expected, atol=1e-10)
+
+
+def test_linear_with_more_features_than_samples_is_the_minimum_norm_fit():
+    x, rng = _data(20, k=50)
+    y = rng.normal(size=(20, 2))
+    model = LinearRegressor().fit(x, y)
+    np.testing.assert_allclose(model.predict(x), y, atol=1e-9)  # interpolates
+    # The minimum-norm solution in standardized feature units (the regressor's internal units).
+    mean, scale = x.mean(axis=0), x.std(axis=0)
+    coef = np.linalg.lstsq((x - mean) / scale, y - y.mean(axis=0), rcond=None)[0]
+    x_new, _ = _data(5, k=50, seed=4)
+    expected = (x_new - mean) / scale @ coef + y.mean(axis=0)
+    np.testing.assert_allclose(model.predict(x_new), expected, atol=1e-9)
+
+
+def test_linear_handles_a_constant_and_a_duplicated_feature():
+    x, rng = _data()
+    x = np.column_stack([x, np.full(len(x), 7.0), x[:, 0]])
+    y = x[:, :2] @ np.array([[1.0, 2.0], [3.0, 4.0]])
+    np.testing.assert_allclose(LinearRegressor().fit(x, y).predict(x), y, atol=1e-9)
+
+
+def test_ridge_penalty_shrinks_the_coefficients():
+    x, rng = _data()
+    y = x @ rng.normal(size=(3, 2)) + 0.1 * rng.normal(size=(200, 2))
+    norms = [np.linalg.norm(LinearRegressor(alpha=a).fit(x, y).coef_) for a in (0.0, 10.0, 1e4)]
+    assert norms[0] > norms[1] > norms[2]
+
+
+def test_quadratic_expansion_columns():
+    x = np.array([[2.0, 3.0]])
+    np.testing.assert_array_equal(quadratic_expansion(x), [[2.0, 3.0, 4.0, 6.0, 9.0]])
+
+
+def test_quadratic_ridge_recovers_a_quadratic_map_where_linear_cannot():
+    x, rng = _data(300)
+    y = np.column_stack([x[:, 0] ** 2 - x[:, 1] * x[:, 2] + 0.5, 2 * x[:, 1] + x[:, 0] * x[:, 1]])
+    x_new, _ = _data(100, seed=2)
+    y_new = np.column_stack(
+        [
+            x_new[:, 0] ** 2 - x_new[:, 1] * x_new[:, 2] + 0.5,
+            2 * x_new[:, 1] + x_new[:, 0] * x_new[:, 1],
+        ]
+    )
+    quadratic = QuadraticRidge(alpha=0.0).fit(x, y)
+    np.testing.assert_allclose(quadratic.predict(x_new), y_new, atol=1e-8)
+    # A mild penalty barely changes the fit.
+    assert np.abs(QuadraticRidge(alpha=1e-3).fit(x, y).predict(x_new) - y_new).max() < 1e-2
+    linear_error = np.abs(LinearRegressor().fit(x, y).predict(x_new) - y_new).mean()
+    assert linear_error > 0.3
+
+
+@pytest.mark.parametrize("algorithm", ["kd_tree", "brute"])
+@pytest.mark.parametrize("k", [2, 40])
+def test_knn_averages_the_nearest_training_targets(algorithm, k):
+    x, rng = _data(60, k=k)
+    y = rng.normal(size=(60, 2))
+    queries, _ = _data(10, k=k, seed=3)
+    distances = np.linalg.norm(queries[:, None] - x[None], axis=2)
+    nearest = np.argsort(distances, axis=1)[:, :3]
+    expected = y[nearest].mean(axis=1)
+    model = KNNRegressor(3, algorithm=algorithm).fit(x, y)
+    assert (model.tree_ is None) == (algorithm == "brute")
+    np.testing.assert_allclose(model.predict(queries), expected)
+    # One neighbour at a training point returns its target; so does distance weighting.
+    np.testing.assert_array_equal(KNNRegressor(1, algorithm=algorithm).fit(x, y).predict(x), y)
+    weighted = KNNRegressor(4, weights="distance", algorithm=algorithm).fit(x, y)
+    np.testing.assert_allclose(weighted.predict(x), y)
+    # As many neighbours as samples: the mean of all targets.
+    everything = KNNRegressor(60, algorithm=algorithm).fit(x, y).predict(queries)
+    np.testing.assert_allclose(everything, np.broadcast_to(y.mean(axis=0), (10, 2)))
+
+
+def test_knn_auto_uses_a_tree_only_in_few_dimensions():
+    x, rng = _data(30, k=3)
+    y = rng.normal(size=(30, 2))
+    assert KNNRegressor().fit(x, y).tree_ is not None
+    wide, _ = _data(30, k=40)
+    assert KNNRegressor().fit(wide, y).tree_ is None
+
+
+@pytest.mark.parametrize("algorithm", ["kd_tree", "brute"])
+def test_knn_distance_weights(algorithm):
+    x = np.array([[0.0], [1.0], [3.0]])
+    y = np.array([[0.0], [10.0], [30.0]])
+    # Query at 0.5: neighbours 0 and 1 at distance 0.5 each -> mean 5; at 0.25: weights 4 and 4/3.
+    model = KNNRegressor(2, weights="distance", algorithm=algorithm).fit(x, y)
+    np.testing.assert_allclose(model.predict([[0.5], [0.25]]), [[5.0], [10.0 * (4 / 3) / (16 / 3)]])
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    scale=st.lists(st.floats(1e-3, 1e3), min_size=3, max_size=3),
+    shift=st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=3),
+)
+def test_linear_prediction_does_not_depend_on_feature_units(scale, shift):
+    x, rng = _data(80)
+    y = rng.normal(size=(80, 2))
+    reference = LinearRegressor().fit(x, y).predict(x)
+    x_scaled = x * np.array(scale) + np.array(shift)
+    np.testing.assert_allclose(
+        LinearRegressor().fit(x_scaled, y).predict(x_scaled), reference, atol=1e-6
+    )
+
+
+def test_make_regressor_by_name():
+    assert isinstance(make_regressor("linear"), LinearRegressor)
+    assert make_regressor("quadratic", alpha=2.0).alpha == 2.0
+    assert make_regressor("knn", n_neighbors=5).n_neighbors == 5
+    with pytest.raises(ValueError, match="unknown regressor 'cubic'.*knn"):
+        make_regressor("cubic")
+
+
+@pytest.mark.parametrize("cls", [LinearRegressor, QuadraticRidge, KNNRegressor])
+def test_bad_input_is_refused_clearly(cls):
+    x, rng = _data(20)
+    y = rng.normal(size=(20, 2))
+    with pytest.raises(NotFittedError, match="not fitted"):
+        cls().predict(x)
+    with pytest.raises(ValueError, match=r"shape \(N, m\)"):
+        cls().fit(x, y[:, 0])
+    with pytest.raises(ValueError, match="same number of rows"):
+        cls().fit(x, y[:10])
+    with pytest.raises(ValueError, match=r"shape \(N, k\)"):
+        cls().fit(x[:, 0], y)
+    bad = x.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        cls().fit(bad, y)
+    with pytest.raises(TypeError, match="numeric"):
+        cls().fit(np.full((20, 3), "a"), y)
+    model = cls().fit(x, y)
+    with pytest.raises(ValueError, match="fitted on 3 features, got 2"):
+        model.predict(x[:, :2])
+
+
+def test_bad_parameters_are_refused_clearly():
+    x, rng = _data(20)
+    y = rng.normal(size=(20, 2))
+    with pytest.raises(ValueError, match="alpha must be >= 0"):
+        LinearRegressor(alpha=-1.0).fit(x, y)
+    with pytest.raises(TypeError, match="alpha"):
+        QuadraticRidge(alpha="big").fit(x, y)
+    with pytest.raises(ValueError, match="at least that many"):
+        KNNRegressor(30).fit(x, y)
+    with pytest.raises(ValueError, match="n_neighbors must be >= 1"):
+        KNNRegressor(0).fit(x, y)
+    with pytest.raises(ValueError, match="weights"):
+        KNNRegressor(weights="gaussian").fit(x, y)
+    with pytest.raises(ValueError, match="algorithm"):
+        KNNRegressor(algorithm="ball_tree").fit(x, y)
+    with pytest.raises(ValueError, match="expanded features.*PCA"):
+        QuadraticRidge().fit(np.zeros((3, 300)), np.zeros((3, 2)))
