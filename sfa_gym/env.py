@@ -1,0 +1,387 @@
+"""OmniRoverEnv: a skid-steer rover with an omnidirectional camera in a MuJoCo world."""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sfa_gym import gl
+
+gl.configure()
+
+import gymnasium as gym  # noqa: E402
+import mujoco  # noqa: E402  (MUJOCO_GL must be set first)
+from gymnasium import spaces  # noqa: E402
+
+from sfa_gym.camera import OmniCamera, PanoramaSpec  # noqa: E402
+from sfa_gym.rover import WHEELS, RoverSpec, rover_mjcf, yaw_of_quat  # noqa: E402
+from sfa_gym.worlds import WorldSpec, build_world, load_world_spec  # noqa: E402
+
+# A process forked after it used OpenGL inherits a GL driver whose worker threads did not
+# survive the fork: rendering in the child hangs. Detect it and fail with advice instead.
+_gl_used = False
+_forked_after_gl = False
+
+
+def _mark_fork_in_child() -> None:
+    global _forked_after_gl
+    egl = sys.modules.get("mujoco.egl")
+    if _gl_used or (egl is not None and getattr(egl, "EGL_DISPLAY", None) is not None):
+        _forked_after_gl = True
+
+
+os.register_at_fork(after_in_child=_mark_fork_in_child)
+
+
+def _check_gl_usable() -> None:
+    global _gl_used
+    if _forked_after_gl:
+        raise RuntimeError(
+            "this process was forked from one that had already rendered with OpenGL, and "
+            "rendering here would hang; start vector-env workers with 'spawn' or 'forkserver': "
+            "gym.make_vec(..., vectorization_mode='async', vector_kwargs={'context': 'spawn'})"
+        )
+    _gl_used = True
+
+
+_PANORAMA_PRESETS = {
+    "paper_sim": PanoramaSpec.paper_sim,
+    "paper_outdoor": PanoramaSpec.paper_outdoor,
+}
+_SETTLE_SECONDS = 1.0
+
+
+def _positive(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"{name} must be a number, got {value!r}")
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    return float(value)
+
+
+class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
+    """A rover drives on the floor of a walled arena and sees it through an omnidirectional camera.
+
+    ## Description
+
+    A four-wheel skid-steer rover of the Pioneer 3AT class (0.5 m x 0.48 m, 13.5 kg) carries an
+    omnidirectional camera on a mast, 1.0 m above the ground, after the robot of Metka, Franzius
+    and Bauer-Wersing (2013), "Outdoor self-localization of a mobile robot using slow feature
+    analysis". Each step the agent sets the forward speed and yaw rate; the wheels are driven by
+    velocity servos and the rover moves by MuJoCo physics (contacts, slip, collisions with the
+    walls). The observation is a cylindrical panorama of the surroundings. The world (arena,
+    textures, landmarks, light, sky) is generated from a world spec and a world seed and stays
+    fixed for the life of the env; ``reset`` only moves the rover.
+
+    The ``"paper_sim"`` world is a 7 m x 7 m floor inside 0.8 m high walls made of textured
+    panels, surrounded by trees, coloured pillars and blocks under a gradient sky. The drivable
+    area is the central 6 m x 6 m square (0.5 m from the walls, so the rover fits everywhere);
+    :meth:`grid_positions` gives the paper's 30 x 30 grid over it, 0.2 m apart.
+
+    This env is for exploration and self-localization: it has no task and no reward.
+    Navigation tasks are separate envs.
+
+    ## Action Space
+
+    ``Box([-v_max, -w_max], [v_max, w_max], (2,), float32)``:
+
+    | index | action                                 | min    | max   | unit  |
+    |-------|----------------------------------------|--------|-------|-------|
+    | 0     | forward speed ``v``                    | -v_max | v_max | m/s   |
+    | 1     | yaw rate ``w`` (counter-clockwise > 0) | -w_max | w_max | rad/s |
+
+    Actions outside the box are clipped. The rover's skid-steer turns less than an ideal
+    differential drive; the wheel speeds use an effective track (``RoverSpec.turn_slip``) so
+    that turning in place at ``w`` changes the yaw by about ``w`` per second; turning while
+    driving turns somewhat less. The command is held for ``control_dt`` seconds.
+
+    ## Observation Space
+
+    ``Box(0, 255, (H, W, 3), uint8)``: an RGB panorama, by default 40 x 350. Column 0 looks
+    along the rover's heading and the azimuth grows counter-clockwise with the column index
+    (column ``c`` looks at ``yaw + 2*pi*c/W``), so turning by ``+2*pi*k/W`` shifts the content
+    by ``-k`` columns. Rows span ``vfov_deg`` (40 degrees by default) centred on the horizon.
+
+    ## Rewards
+
+    The reward is always 0.
+
+    ## Starting State
+
+    With ``options={"pose": (x, y, yaw)}`` the rover is placed at rest at that pose (metres,
+    radians; ``(x, y)`` must lie in :attr:`arena_bounds`). Otherwise ``x`` and ``y`` are drawn
+    uniformly from :attr:`arena_bounds` and ``yaw`` uniformly from ``[-pi, pi)``, with
+    ``self.np_random``.
+
+    ## Episode End
+
+    The episode never terminates. The registered ids truncate it after ``max_episode_steps``
+    steps (1000, i.e. 100 s at the default ``control_dt``).
+
+    ## Info
+
+    ``reset`` and ``step`` return the ground truth: ``"x"``, ``"y"`` (m, world frame),
+    ``"yaw"`` (rad, wrapped to ``(-pi, pi]``) and ``"t"`` (simulated time since reset, s).
+
+    ## Arguments
+
+    * ``world`` ("paper_sim"): the world spec: a name in ``envs/``, a path to a JSON spec, or
+      a ``WorldSpec``.
+    * ``world_seed`` (0): seed of the world's procedural variation (textures, landmarks).
+    * ``panorama`` (None): a ``PanoramaSpec``, or a preset name ("paper_sim": 40 x 350,
+      "paper_outdoor": 60 x 600); None means "paper_sim".
+    * ``v_max`` (0.4): largest forward speed, m/s.
+    * ``w_max`` (1.0): largest yaw rate, rad/s.
+    * ``control_dt`` (0.1): duration of one step, s; a multiple of the physics timestep
+      (0.005 s).
+    * ``rover`` (None): a ``RoverSpec`` (geometry, masses, drive); None for the default.
+    * ``render_mode`` (None): None or "rgb_array" (a top-down view of the arena).
+    * ``render_size`` (256): side of the square top-down render, pixels.
+
+    ``env.unwrapped`` also offers :attr:`arena_bounds` and :meth:`grid_positions` for drivers,
+    and ``model``, ``data`` (MuJoCo), ``mjcf`` (the model's text) and ``layout`` (where the
+    landmarks and obstacles stand).
+
+    ## Vector envs
+
+    Rendering contexts are created on the first ``reset``, never in ``__init__``, so
+    ``gym.make_vec(..., vectorization_mode="async")`` works with its default start method
+    (fork on Linux) as long as the parent process has not rendered yet. A process forked
+    after rendering would inherit a broken GL driver and hang; the env detects that and
+    raises instead. Start the workers with ``vector_kwargs={"context": "spawn"}`` (or
+    ``"forkserver"``) when the parent renders too.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        world: str | os.PathLike[str] | WorldSpec = "paper_sim",
+        world_seed: int = 0,
+        panorama: PanoramaSpec | str | None = None,
+        v_max: float = 0.4,
+        w_max: float = 1.0,
+        control_dt: float = 0.1,
+        rover: RoverSpec | None = None,
+        render_mode: str | None = None,
+        render_size: int = 256,
+    ) -> None:
+        self.world = world
+        self.world_seed = world_seed
+        if panorama is None:
+            panorama = PanoramaSpec.paper_sim()
+        elif isinstance(panorama, str):
+            if panorama not in _PANORAMA_PRESETS:
+                raise ValueError(
+                    f"unknown panorama preset {panorama!r}; expected one of "
+                    f"{sorted(_PANORAMA_PRESETS)} or a PanoramaSpec"
+                )
+            panorama = _PANORAMA_PRESETS[panorama]()
+        elif not isinstance(panorama, PanoramaSpec):
+            raise TypeError(
+                f"panorama must be a PanoramaSpec, a preset name or None, got {panorama!r}"
+            )
+        self.panorama = panorama
+        self.v_max = _positive("v_max", v_max)
+        self.w_max = _positive("w_max", w_max)
+        self.control_dt = _positive("control_dt", control_dt)
+        self.rover = RoverSpec() if rover is None else rover
+        if not isinstance(self.rover, RoverSpec):
+            raise TypeError(f"rover must be a RoverSpec or None, got {rover!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        self.render_mode = render_mode
+        if isinstance(render_size, bool) or not isinstance(render_size, int) or render_size < 1:
+            raise ValueError(f"render_size must be a positive int, got {render_size!r}")
+        self.render_size = render_size
+
+        self.world_spec = world if isinstance(world, WorldSpec) else load_world_spec(world)
+        built = build_world(self.world_spec, world_seed, rover_mjcf(self.rover, panorama))
+        self.mjcf = built.mjcf
+        self.layout = built.layout
+        self.model = mujoco.MjModel.from_xml_string(self.mjcf)
+        self.data = mujoco.MjData(self.model)
+        # the top-down renderer draws into the model's offscreen buffer
+        vis = self.model.vis.global_
+        vis.offwidth, vis.offheight = (
+            max(vis.offwidth, render_size),
+            max(vis.offheight, render_size),
+        )
+        timestep = float(self.model.opt.timestep)
+        self.frame_skip = round(self.control_dt / timestep)
+        if self.frame_skip < 1 or abs(self.frame_skip * timestep - self.control_dt) > 1e-9:
+            raise ValueError(
+                f"control_dt must be a positive multiple of the physics timestep {timestep} s, "
+                f"got {control_dt!r}"
+            )
+        self.metadata = {**self.metadata, "render_fps": 1.0 / self.control_dt}
+
+        joint = self.model.joint("rover_root")
+        self._qpos0 = int(joint.qposadr[0])
+        self._actuators = [self.model.actuator(f"rover_drive_{w}").id for w in WHEELS]
+        self._rest_z = self._settled_height()
+
+        # Cheap: the camera and the top-down renderer create their GL contexts on first use,
+        # so the env can be built in one process and stepped in a forked or spawned worker.
+        self._camera = OmniCamera(self.model, panorama)
+        self._renderer: mujoco.Renderer | None = None
+
+        self.action_space = spaces.Box(
+            low=np.array([-self.v_max, -self.w_max], dtype=np.float32),
+            high=np.array([self.v_max, self.w_max], dtype=np.float32),
+            dtype=np.float32,
+        )
+        self.observation_space = spaces.Box(
+            0, 255, shape=(panorama.height, panorama.width, 3), dtype=np.uint8
+        )
+
+    # -- helpers for drivers -------------------------------------------------------------------
+
+    @property
+    def arena_bounds(self) -> tuple[float, float, float, float]:
+        """Drivable area ``(xmin, xmax, ymin, ymax)`` in metres, world frame."""
+        return self.layout.bounds
+
+    def grid_positions(self, n: int = 30) -> NDArray[np.float64]:
+        """The ``n x n`` regular grid of positions over :attr:`arena_bounds` (cell centres).
+
+        Returns:
+            ``(n * n, 2)`` float64 ``(x, y)`` in metres, x varying fastest. With the default
+            world and ``n=30`` the spacing is 0.2 m.
+        """
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+            raise ValueError(f"n must be a positive int, got {n!r}")
+        xmin, xmax, ymin, ymax = self.arena_bounds
+        xs = xmin + (np.arange(n) + 0.5) * (xmax - xmin) / n
+        ys = ymin + (np.arange(n) + 0.5) * (ymax - ymin) / n
+        gx, gy = np.meshgrid(xs, ys)
+        return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+    # -- physics ------------------------------------------------------------------------------
+
+    def _settled_height(self) -> float:
+        """Height of the body origin when the rover rests on the ground (contacts are soft,
+        so the wheels sink in slightly); placing the rover there makes it start at rest."""
+        x, y = self._free_position(self.grid_positions(9))
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[self._qpos0 : self._qpos0 + 2] = (x, y)
+        mujoco.mj_step(
+            self.model, self.data, nstep=round(_SETTLE_SECONDS / self.model.opt.timestep)
+        )
+        return float(self.data.qpos[self._qpos0 + 2])
+
+    def _free_position(self, candidates: NDArray[np.float64]) -> tuple[float, float]:
+        """The first candidate ``(x, y)`` where the rover clears every obstacle."""
+        clearance = math.hypot(*self.rover.chassis_size[:2]) / 2
+        for x, y in candidates:
+            if all(
+                math.hypot(x - ox, y - oy) > r + clearance for ox, oy, r in self.layout.obstacles
+            ):
+                return float(x), float(y)
+        return float(candidates[-1][0]), float(candidates[-1][1])
+
+    def _place(self, x: float, y: float, yaw: float) -> None:
+        m, d = self.model, self.data
+        mujoco.mj_resetData(m, d)
+        q = self._qpos0
+        d.qpos[q : q + 3] = (x, y, self._rest_z)
+        d.qpos[q + 3 : q + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+        mujoco.mj_forward(m, d)
+
+    def _pose(self) -> tuple[float, float, float]:
+        q = self.data.qpos[self._qpos0 : self._qpos0 + 7]
+        return float(q[0]), float(q[1]), yaw_of_quat(*(float(v) for v in q[3:7]))
+
+    def _info(self) -> dict[str, float]:
+        x, y, yaw = self._pose()
+        return {"x": x, "y": y, "yaw": yaw, "t": float(self.data.time)}
+
+    def _random_pose(self) -> tuple[float, float, float]:
+        xmin, xmax, ymin, ymax = self.arena_bounds
+        # Rejection sampling around obstacles; draws continue from np_random, so a seed
+        # still fixes the start.
+        candidates = self.np_random.uniform((xmin, ymin), (xmax, ymax), size=(1000, 2))
+        x, y = self._free_position(candidates)
+        yaw = float(self.np_random.uniform(-math.pi, math.pi))
+        return x, y, yaw
+
+    def _check_pose(self, pose: Any) -> tuple[float, float, float]:
+        try:
+            x, y, yaw = (float(v) for v in pose)
+        except (TypeError, ValueError):
+            raise ValueError(f'options["pose"] must be (x, y, yaw) numbers, got {pose!r}') from None
+        if not all(math.isfinite(v) for v in (x, y, yaw)):
+            raise ValueError(f'options["pose"] must be finite, got {pose!r}')
+        xmin, xmax, ymin, ymax = self.arena_bounds
+        if not (xmin - 1e-9 <= x <= xmax + 1e-9 and ymin - 1e-9 <= y <= ymax + 1e-9):
+            raise ValueError(
+                f'options["pose"] position ({x}, {y}) lies outside the drivable area '
+                f"x in [{xmin}, {xmax}], y in [{ymin}, {ymax}]"
+            )
+        return x, y, yaw
+
+    # -- gymnasium API ------------------------------------------------------------------------
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.uint8], dict[str, float]]:
+        super().reset(seed=seed)
+        options = {} if options is None else dict(options)
+        unknown = sorted(set(options) - {"pose"})
+        if unknown:
+            raise ValueError(f"unknown reset options {unknown}; expected 'pose'")
+        if options.get("pose") is not None:
+            pose = self._check_pose(options["pose"])
+        else:
+            pose = self._random_pose()
+        self._place(*pose)
+        _check_gl_usable()
+        return self._camera.render(self.data), self._info()
+
+    def step(
+        self, action: NDArray[np.float32]
+    ) -> tuple[NDArray[np.uint8], float, bool, bool, dict[str, float]]:
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != (2,):
+            raise ValueError(f"action must have shape (2,) = (v, w), got shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action must be finite, got {a.tolist()}")
+        v = min(max(a[0], -self.v_max), self.v_max)
+        w = min(max(a[1], -self.w_max), self.w_max)
+        left, right = self.rover.wheel_speeds(v, w)
+        self.data.ctrl[self._actuators] = (left, left, right, right)
+        mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
+        _check_gl_usable()
+        return self._camera.render(self.data), 0.0, False, False, self._info()
+
+    def render(self) -> NDArray[np.uint8] | None:
+        """The top-down view of the arena, ``(render_size, render_size, 3)`` uint8, when
+        ``render_mode == "rgb_array"``; None otherwise."""
+        if self.render_mode is None:
+            gym.logger.warn(
+                "render() was called without a render_mode; pass render_mode='rgb_array'"
+            )
+            return None
+        _check_gl_usable()
+        if self._renderer is None:
+            self._renderer = mujoco.Renderer(self.model, self.render_size, self.render_size)
+        self._renderer.update_scene(self.data, camera="overhead")
+        return self._renderer.render()
+
+    def close(self) -> None:
+        self._camera.close()
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
