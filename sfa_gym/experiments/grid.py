@@ -28,13 +28,19 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from tqdm.auto import tqdm
 
 import sfa_gym
+from sfa_gym.experiments.common import (
+    NETWORKS,
+    SlowFeatureMethod,
+    fit_method,
+    mae_dict,
+    rotation_features,
+)
 from sfa_gym.localization import eta_phi, eta_r, fit_predict, mae, make_regressor, random_split_mae
 from sfa_gym.localization.methods import FeatureMethod
-from sfa_gym.rotation import n_rotations, rotated_views
-from sfa_gym.sfa import HierarchicalSFA, presets
+from sfa_gym.rotation import n_rotations
+from sfa_gym.sfa import HierarchicalSFA
 
 __all__ = [
     "GridExperiment",
@@ -93,87 +99,6 @@ class GridExperiment:
             )
         if self.network not in NETWORKS:
             raise ValueError(f"network must be one of {sorted(NETWORKS)}, got {self.network!r}")
-
-
-NETWORKS = {
-    "paper_sim": lambda h, w, d: presets.paper_sim(dim=d, out_dim=d),
-    "paper_outdoor": lambda h, w, d: presets.paper_outdoor(dim=d, out_dim=d),
-    "tiny": lambda h, w, d: presets.tiny(height=h, width=w, dim=d, out_dim=d),
-}
-
-
-class SlowFeatureMethod:
-    """Hierarchical SFA as a feature method: fitted on all simulated rotations of a sequence of
-    panoramas (:meth:`HierarchicalSFA.fit_rotations`), regressed linearly as in the paper."""
-
-    name = "hierarchical_sfa"
-    regressor = "linear"
-
-    def __init__(
-        self,
-        network: str = "paper_sim",
-        node_dim: int = 32,
-        n_outputs: int = 8,
-        step: int = 5,
-        progress: bool = True,
-    ) -> None:
-        self.network = network
-        self.node_dim = node_dim
-        self.n_outputs = n_outputs
-        self.step = step
-        self.progress = progress
-
-    def fit_rotations(self, panoramas: NDArray[np.uint8]) -> SlowFeatureMethod:
-        """Fit on ``panoramas (L, H, W, 3)`` in visiting order, with all their rotations."""
-        _, h, w, _ = panoramas.shape
-        layers = NETWORKS[self.network](h, w, self.node_dim)
-        self.model_ = HierarchicalSFA(layers, n_outputs=self.n_outputs, progress=self.progress)
-        self.model_.fit_rotations(panoramas, step=self.step)
-        self.input_shape_ = self.model_.input_shape_
-        return self
-
-    def fit(self, views: NDArray[np.uint8], sequence_ids: Any = None) -> SlowFeatureMethod:
-        _, h, w, _ = views.shape
-        layers = NETWORKS[self.network](h, w, self.node_dim)
-        self.model_ = HierarchicalSFA(layers, n_outputs=self.n_outputs, progress=self.progress)
-        self.model_.fit(views, sequence_ids)
-        self.input_shape_ = self.model_.input_shape_
-        return self
-
-    def transform(self, views: NDArray[np.uint8]) -> NDArray[np.float64]:
-        return self.model_.transform(views)
-
-
-def _rotation_features(
-    method: FeatureMethod, panoramas: NDArray[np.uint8], step: int, desc: str, progress: bool
-) -> NDArray[np.float64]:
-    """Features of every rotated view, ``(L, K, k)``, a few locations at a time."""
-    n_rot = n_rotations(panoramas.shape[2], step)
-    per_chunk = max(1, 4096 // n_rot)
-    out = []
-    for i in tqdm(range(0, len(panoramas), per_chunk), desc=desc, disable=not progress):
-        block = panoramas[i : i + per_chunk]
-        views = np.concatenate([rotated_views(p, step)[0] for p in block])
-        out.append(
-            np.asarray(method.transform(views), dtype=np.float64).reshape(len(block), n_rot, -1)
-        )
-    return np.concatenate(out)
-
-
-def _fit_method(method: FeatureMethod, panoramas: NDArray[np.uint8], step: int) -> FeatureMethod:
-    if hasattr(method, "fit_rotations"):
-        return method.fit_rotations(panoramas)
-    views = np.concatenate([rotated_views(p, step)[0] for p in panoramas])
-    return method.fit(views)
-
-
-def _mae_dict(result: Any) -> dict[str, list[float]]:
-    return {
-        "mae_m": np.round(result.mae_m, 5).tolist(),
-        "mae_percent": np.round(result.mae_percent, 4).tolist(),
-        "std_m": np.round(result.std_m, 5).tolist(),
-        "range_m": np.round(result.range_m, 5).tolist(),
-    }
 
 
 def select_positions(config: GridExperiment, n_positions: int) -> tuple[NDArray, NDArray]:
@@ -253,11 +178,11 @@ def run_grid_experiment(
     }
     sfa_outputs: dict[str, NDArray] = {}
     for method, regressors in entries:
-        fitted = _fit_method(method, train_pan, config.step)
-        f_train = _rotation_features(
+        fitted = fit_method(method, train_pan, config.step)
+        f_train = rotation_features(
             fitted, train_pan, config.step, f"{method.name} train", progress
         )
-        f_test = _rotation_features(fitted, test_pan, config.step, f"{method.name} test", progress)
+        f_test = rotation_features(fitted, test_pan, config.step, f"{method.name} test", progress)
         entry: dict[str, Any] = {
             "eta_r": np.round(eta_r(f_train), 4).tolist(),
             "eta_phi": np.round(eta_phi(f_train), 4).tolist(),
@@ -269,8 +194,8 @@ def run_grid_experiment(
             )
             estimates = fit_predict(make_regressor(name), f_train, train_xy, f_test)
             entry[name] = {
-                "paper_splits": _mae_dict(splits),
-                "train_test": _mae_dict(mae(estimates, test_xy)),
+                "paper_splits": mae_dict(splits),
+                "train_test": mae_dict(mae(estimates, test_xy)),
             }
             if method is sfa and name == "linear":
                 sfa_outputs["estimates"] = estimates
@@ -309,7 +234,7 @@ def _grid_figures(
     outputs = np.stack(
         [model.transform(np.roll(panoramas, -k * config.step, axis=2)) for k in ks], axis=1
     )
-    fig, _ = plots.firing_maps(outputs, poses[:, :2], phis=np.degrees(phis), n_outputs=4)
+    fig, _ = plots.firing_maps(outputs, poses[:, :2], phis=phis, n_outputs=4)
     fig.savefig(out / "firing_maps.png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     fig, _ = plots.estimate_vs_truth(estimates, test_xy)
@@ -318,27 +243,3 @@ def _grid_figures(
     fig, _ = plots.error_map(estimates, test_xy)
     fig.savefig(out / "error_map.png", dpi=110, bbox_inches="tight")
     plt.close(fig)
-
-
-def format_table(results: dict[str, Any]) -> str:
-    """A plain-text table of the MAE (% of the range) per method and regression."""
-    lines = [
-        f"{'method':<20} {'regression':<10} {'splits x %':>10} {'splits y %':>10} "
-        f"{'test x %':>9} {'test y %':>9} {'max eta_phi':>11}"
-    ]
-    for name, entry in results["methods"].items():
-        for reg, value in entry.items():
-            if not isinstance(value, dict):
-                continue
-            s = value["paper_splits"]["mae_percent"]
-            t = value["train_test"]["mae_percent"]
-            lines.append(
-                f"{name:<20} {reg:<10} {s[0]:>10.2f} {s[1]:>10.2f} {t[0]:>9.2f} {t[1]:>9.2f} "
-                f"{max(entry['eta_phi']):>11.3f}"
-            )
-    paper = results["paper"]
-    lines.append(
-        f"{'paper (2013)':<20} {'linear':<10} {paper['mae_percent'][0]:>10.2f} "
-        f"{paper['mae_percent'][1]:>10.2f} {'-':>9} {'-':>9} {paper['eta_phi_max']:>11.3f}"
-    )
-    return "\n".join(lines)
