@@ -1,0 +1,586 @@
+"""Omnidirectional panoramic camera: N pinhole views stitched into one cylindrical panorama.
+
+The rover's mast carries ``n_views`` MuJoCo cameras (built by :func:`camera_mjcf`) that look
+horizontally at evenly spaced azimuths. :class:`OmniCamera` renders them into the viewports of
+one offscreen buffer, reads the buffer once and resamples it with one precomputed ``cv2.remap``
+onto the panorama grid:
+
+* column ``c`` looks at azimuth ``heading + 2*pi*c/W`` (counter-clockwise, so a yaw change of
+  ``+2*pi*k/W`` gives ``np.roll(old, -k, axis=1)``); the panorama is periodic in width;
+* row ``r`` looks at elevation ``vfov/2 - (r + 1/2) * vfov/H`` (row 0 is the top; rows are
+  equiangular in elevation, centred on the horizon).
+
+Anti-aliasing is by supersampling: the views are rendered ``supersample`` times denser than the
+panorama (at the centre of a view; denser towards its sides), the panorama is resampled at
+``supersample`` times its resolution and box-filtered down (``cv2.INTER_AREA``). On a CPU
+rasteriser this is cheaper than MSAA.
+
+What the views see: the model's geoms of groups 0-2 (MuJoCo's default), no sites, no shadows or
+reflections. A headlight is moved to the eye and made to shine in all directions, so that every
+view lights a surface alike (a headlight along each view's axis would leave seams).
+"""
+
+from __future__ import annotations
+
+import atexit
+import math
+import os
+import weakref
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from sfa_gym import gl
+
+gl.configure()
+
+import mujoco  # noqa: E402  (MUJOCO_GL must be set first)
+
+__all__ = ["PanoramaSpec", "camera_mjcf", "OmniCamera"]
+
+# Elevation (degrees) that every view covers beyond the panorama's top and bottom edges, so that
+# bilinear samples of the outermost rows stay inside the rendered image.
+_ELEVATION_MARGIN_DEG = 1.0
+# Pixels on each side of a view beyond its azimuth sector, for the same reason.
+_SIDE_MARGIN_PX = 1.5
+# The views' fovy grows like tan(vfov/2) and reaches 180 degrees at vfov = 180.
+_MAX_VFOV_DEG = 150.0
+_MAX_VIEWS = 64
+_MAX_SUPERSAMPLE = 8
+
+
+def _check_int(name: str, value: object, low: int, high: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ValueError(f"PanoramaSpec.{name} must be an int, got {value!r}")
+    if not low <= value <= high:
+        raise ValueError(f"PanoramaSpec.{name} must be in [{low}, {high}], got {value!r}")
+
+
+@dataclass(frozen=True)
+class PanoramaSpec:
+    """Geometry and quality of a cylindrical panorama.
+
+    Attributes:
+        width: panorama columns ``W`` (pixels over 360 degrees of azimuth), >= 1.
+        height: panorama rows ``H``, >= 1.
+        vfov_deg: vertical field of view of the cylinder in degrees, centred on the horizon,
+            in (0, 150].
+        n_views: pinhole cameras around the mast, in [3, 64]; each covers 360/n degrees.
+        supersample: render and resample at this factor, then box-filter down, in [1, 8]
+            (1 = no anti-aliasing).
+    """
+
+    width: int = 350
+    height: int = 40
+    vfov_deg: float = 40.0
+    n_views: int = 4
+    supersample: int = 2
+
+    def __post_init__(self) -> None:
+        _check_int("width", self.width, 1, 1 << 16)
+        _check_int("height", self.height, 1, 1 << 16)
+        _check_int("n_views", self.n_views, 3, _MAX_VIEWS)
+        _check_int("supersample", self.supersample, 1, _MAX_SUPERSAMPLE)
+        vfov = self.vfov_deg
+        if isinstance(vfov, bool) or not isinstance(vfov, int | float | np.integer | np.floating):
+            raise ValueError(f"PanoramaSpec.vfov_deg must be a number, got {vfov!r}")
+        if not 0.0 < float(vfov) <= _MAX_VFOV_DEG:
+            raise ValueError(
+                f"PanoramaSpec.vfov_deg must be in (0, {_MAX_VFOV_DEG:g}] degrees, got {vfov!r}"
+            )
+
+    @classmethod
+    def paper_sim(cls) -> PanoramaSpec:
+        """The paper's simulator panoramas: 350 x 40 pixels."""
+        return cls(width=350, height=40)
+
+    @classmethod
+    def paper_outdoor(cls) -> PanoramaSpec:
+        """The paper's outdoor panoramas: 600 x 60 pixels."""
+        return cls(width=600, height=60)
+
+
+def _view_fovy_deg(spec: PanoramaSpec) -> float:
+    """Vertical fovy (degrees) of each pinhole view.
+
+    A view covers azimuths within ``pi/N`` of its axis; at the sector edge a point at elevation
+    ``e`` projects to image height ``tan(e) / cos(pi/N)`` (focal length 1), so that is what the
+    fovy must reach.
+    """
+    top = math.radians(spec.vfov_deg / 2.0 + _ELEVATION_MARGIN_DEG)
+    return math.degrees(2.0 * math.atan(math.tan(top) / math.cos(math.pi / spec.n_views)))
+
+
+def _view_azimuths(spec: PanoramaSpec) -> NDArray[np.float64]:
+    return 2.0 * np.pi * np.arange(spec.n_views) / spec.n_views
+
+
+def camera_mjcf(spec: PanoramaSpec, prefix: str = "omni") -> str:
+    """MJCF ``<camera>`` elements of the omnidirectional camera, to put inside the mast body.
+
+    Camera ``f"{prefix}{i}"`` sits at the body origin and looks horizontally along azimuth
+    ``2*pi*i/n_views`` counter-clockwise from the body's +x axis (the heading), image up = body
+    +z. MuJoCo cameras look along their local -z with +y up, hence the ``xyaxes``. Only
+    ``spec.vfov_deg`` and ``spec.n_views`` shape the elements.
+
+    Args:
+        spec: the panorama the cameras are for.
+        prefix: camera name prefix (no spaces or quotes).
+    Returns:
+        The elements, one per line.
+    """
+    if not isinstance(spec, PanoramaSpec):
+        raise TypeError(f"spec must be a PanoramaSpec, got {type(spec).__name__}")
+    if not isinstance(prefix, str) or not prefix or any(ch in prefix for ch in "<>\"'& \t\n"):
+        raise ValueError(
+            f"prefix must be a non-empty name without spaces or quotes, got {prefix!r}"
+        )
+    fovy = _view_fovy_deg(spec)
+    lines = []
+    for i, azimuth in enumerate(_view_azimuths(spec)):
+        # Rounding turns cos(pi/2) = 6e-17 into a clean 0 (and -0.0 into 0).
+        c, s = (round(v, 12) + 0.0 for v in (math.cos(azimuth), math.sin(azimuth)))
+        # Image right = forward x up = (sin a, -cos a, 0); image up = +z.
+        lines.append(
+            f'<camera name="{prefix}{i}" pos="0 0 0" '
+            f'xyaxes="{s:.12g} {-c + 0.0:.12g} 0 0 0 1" fovy="{fovy:.15g}"/>'
+        )
+    return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Pixel geometry of the views in the offscreen buffer.
+
+    ``focal``: pinhole focal length in pixels; ``view_w`` x ``view_h``: one viewport; the views
+    sit on a grid of ``cols`` columns, view ``i`` at ``((i % cols) * view_w, (i // cols) *
+    view_h)`` in OpenGL window coordinates (origin bottom-left).
+    """
+
+    focal: float
+    view_w: int
+    view_h: int
+    n_views: int
+    cols: int
+
+    @property
+    def rows(self) -> int:
+        return -(-self.n_views // self.cols)
+
+    @property
+    def buffer_w(self) -> int:
+        return self.view_w * self.cols
+
+    @property
+    def buffer_h(self) -> int:
+        return self.view_h * self.rows
+
+    def origin(self, view: int) -> tuple[int, int]:
+        return (view % self.cols) * self.view_w, (view // self.cols) * self.view_h
+
+
+def _layout(spec: PanoramaSpec, fovy_deg: float) -> _Layout:
+    """Smallest views whose central pixel density matches the supersampled panorama's."""
+    vfov = math.radians(spec.vfov_deg)
+    # Supersampled panorama pixels per radian; a pinhole view is densest at its sides, so
+    # matching at its centre never undersamples.
+    density = spec.supersample * max(spec.width / (2.0 * math.pi), spec.height / vfov)
+    half_fovy = math.tan(math.radians(fovy_deg) / 2.0)
+    view_h = 2 * math.ceil(density * half_fovy)
+    focal = (view_h / 2.0) / half_fovy
+    view_w = 2 * math.ceil(focal * math.tan(math.pi / spec.n_views) + _SIDE_MARGIN_PX)
+    # The squarest grid keeps the buffer within OpenGL's size limits for large panoramas.
+    n = spec.n_views
+    cols = min(range(1, n + 1), key=lambda c: (max(c * view_w, -(-n // c) * view_h), -c))
+    return _Layout(focal=focal, view_w=view_w, view_h=view_h, n_views=n, cols=cols)
+
+
+def _remap_tables(
+    spec: PanoramaSpec, layout: _Layout
+) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """Source coordinates in the read-back buffer for every supersampled panorama pixel.
+
+    Returns ``(map_x, map_y)``, each ``(H*s, W*s)`` float32, in buffer pixels (pixel centres at
+    integers). The buffer comes from ``glReadPixels``: its row 0 is the bottom of the image, so
+    a higher elevation means a larger row index and no flip is needed.
+    """
+    s = spec.supersample
+    rows, cols = spec.height * s, spec.width * s
+    # Sub-pixel centres: after the s x s box filter, output column c is centred on azimuth
+    # 2*pi*c/W exactly, and the rows are symmetric about the horizon.
+    azimuth = 2.0 * np.pi / spec.width * ((np.arange(cols) + 0.5) / s - 0.5)
+    vfov = math.radians(spec.vfov_deg)
+    elevation = vfov / 2.0 - (np.arange(rows) + 0.5) * vfov / rows
+    sector = 2.0 * np.pi / spec.n_views
+    view = np.round(azimuth / sector).astype(np.int64) % spec.n_views
+    theta = azimuth - view * sector  # from the view's axis, counter-clockwise
+    theta = (theta + np.pi) % (2.0 * np.pi) - np.pi
+    f = layout.focal
+    # Counter-clockwise of the axis is to the left in the image.
+    x_in_view = layout.view_w / 2.0 - 0.5 - f * np.tan(theta)
+    y_in_view = layout.view_h / 2.0 - 0.5 + f * np.tan(elevation)[:, None] / np.cos(theta)
+    inside = (
+        (x_in_view >= 0.0).all()
+        and (x_in_view <= layout.view_w - 1.0).all()
+        and (y_in_view >= 0.0).all()
+        and (y_in_view <= layout.view_h - 1.0).all()
+    )
+    if not inside:
+        raise RuntimeError(f"panorama samples fall outside the rendered views ({spec}, {layout})")
+    x0 = (view % layout.cols) * layout.view_w
+    y0 = (view // layout.cols) * layout.view_h
+    map_x = np.broadcast_to(x0 + x_in_view, (rows, cols))
+    map_y = y0 + y_in_view
+    return map_x.astype(np.float32), map_y.astype(np.float32)
+
+
+# Cameras with a live GL context, freed at exit while the GL bindings still work (freeing them
+# during interpreter teardown makes PyOpenGL print errors).
+_LIVE_CAMERAS: weakref.WeakSet[OmniCamera] = weakref.WeakSet()
+
+
+@atexit.register
+def _close_live_cameras() -> None:
+    for camera in list(_LIVE_CAMERAS):
+        try:
+            camera.close()
+        except Exception:
+            pass
+
+
+_OWNED_GL_CONTEXT: type | None = None
+
+
+def _new_gl_context(width: int, height: int) -> Any:
+    """A ``mujoco.GLContext`` whose lifetime :meth:`OmniCamera.close` manages alone (its own
+    ``__del__`` would free it again, possibly during interpreter teardown)."""
+    global _OWNED_GL_CONTEXT
+    if _OWNED_GL_CONTEXT is None:
+        base = mujoco.GLContext
+        _OWNED_GL_CONTEXT = type(f"_Owned{base.__name__}", (base,), {"__del__": lambda self: None})
+    return _OWNED_GL_CONTEXT(width, height)
+
+
+def _cam_forward_up(quat: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    mat = np.empty(9)
+    mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=np.float64))
+    mat = mat.reshape(3, 3)
+    return -mat[:, 2], mat[:, 1]
+
+
+def _find_cameras(model: mujoco.MjModel, spec: PanoramaSpec, prefix: str) -> list[int]:
+    """Ids of the cameras ``f"{prefix}{i}"``, checked against ``camera_mjcf(spec, prefix)``."""
+
+    def exists(i: int) -> bool:
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, f"{prefix}{i}") >= 0
+
+    count = 0
+    while exists(count):
+        count += 1
+    if count != spec.n_views:
+        raise ValueError(
+            f"the model has {count} cameras {prefix!r}0, 1, ... but spec.n_views is "
+            f"{spec.n_views}; put camera_mjcf(spec, prefix={prefix!r}) inside the mast body"
+        )
+    expected_fovy = _view_fovy_deg(spec)
+    ids = []
+    for i, azimuth in enumerate(_view_azimuths(spec)):
+        name = f"{prefix}{i}"
+        cam_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
+        fovy = float(model.cam_fovy[cam_id])
+        if not math.isclose(fovy, expected_fovy, rel_tol=1e-6):
+            raise ValueError(
+                f"camera {name!r} has fovy {fovy:g} deg but {spec} needs {expected_fovy:g}; "
+                "build the cameras with camera_mjcf(spec) for this spec"
+            )
+        forward, up = _cam_forward_up(model.cam_quat[cam_id])
+        want = np.array([math.cos(azimuth), math.sin(azimuth), 0.0])
+        if not (np.allclose(forward, want, atol=1e-6) and np.allclose(up, [0, 0, 1], atol=1e-6)):
+            raise ValueError(
+                f"camera {name!r} looks along {np.round(forward, 4).tolist()} (up "
+                f"{np.round(up, 4).tolist()}) in its body frame, expected "
+                f"{np.round(want, 4).tolist()} (up [0, 0, 1]); use camera_mjcf(spec)"
+            )
+        if model.cam_mode[cam_id] != mujoco.mjtCamLight.mjCAMLIGHT_FIXED:
+            raise ValueError(f"camera {name!r} must have mode 'fixed'")
+        ids.append(cam_id)
+    for cam_id in ids[1:]:
+        if model.cam_bodyid[cam_id] != model.cam_bodyid[ids[0]] or not np.allclose(
+            model.cam_pos[cam_id], model.cam_pos[ids[0]]
+        ):
+            raise ValueError(
+                f"the cameras {prefix}0..{prefix}{spec.n_views - 1} must share one body and "
+                "one position"
+            )
+    return ids
+
+
+class OmniCamera:
+    """Renders panoramas from the cameras that :func:`camera_mjcf` put on a body.
+
+    Construction is cheap and creates no GL context: the context is created on the first
+    :meth:`render`, so an env holding a camera can be built in a parent process and used in
+    spawned or forked workers, provided the parent never rendered: OpenGL does not survive a
+    fork (a forked child's first GL call would hang), so a camera first rendered in another
+    process raises instead (use the ``spawn`` or ``forkserver`` start method). While creating
+    the context, the model's ``vis.global_.offwidth/offheight`` and ``vis.quality.offsamples``
+    are set to what the camera needs and then restored.
+
+    Args:
+        model: the MuJoCo model containing the cameras ``f"{prefix}{i}"``, ``i < n_views``.
+        spec: panorama geometry; ``vfov_deg`` and ``n_views`` must match the cameras' MJCF.
+        prefix: camera name prefix used with :func:`camera_mjcf`.
+    Raises:
+        ValueError: a camera is missing or its fovy, orientation or placement does not match
+            ``camera_mjcf(spec, prefix)``.
+    """
+
+    def __init__(self, model: mujoco.MjModel, spec: PanoramaSpec, prefix: str = "omni") -> None:
+        self._gl: Any = None
+        self._con: mujoco.MjrContext | None = None
+        self._owner_pid: int | None = None
+        if not isinstance(spec, PanoramaSpec):
+            raise TypeError(f"spec must be a PanoramaSpec, got {type(spec).__name__}")
+        self.model = model
+        self.spec = spec
+        self.prefix = prefix
+        self._cam_ids = _find_cameras(model, spec, prefix)
+        self._layout = _layout(spec, float(model.cam_fovy[self._cam_ids[0]]))
+        lay = self._layout
+        self._tan_half = ((lay.view_w / 2.0) / lay.focal, (lay.view_h / 2.0) / lay.focal)
+        self._map_x: NDArray[Any] | None = None
+        self._map_y: NDArray[Any] | None = None
+        # Skip, in each view, the geoms outside its frustum: same pixels, less geometry.
+        self._cull = True
+        self._cull_cache: tuple[int, list[Any], NDArray[np.intp], list[int]] | None = None
+
+    # -- GL resources ---------------------------------------------------------------------------
+
+    def _ensure_context(self) -> None:
+        pid = os.getpid()
+        if self._owner_pid is not None and self._owner_pid != pid:
+            raise RuntimeError(
+                f"this OmniCamera was first rendered in process {self._owner_pid}; OpenGL does "
+                "not survive fork: create the env in the worker or start workers with the "
+                "'spawn' or 'forkserver' method"
+            )
+        if self._con is not None:
+            self._gl.make_current()
+            return
+        lay, vis = self._layout, self.model.vis
+        gl_context = _new_gl_context(lay.buffer_w, lay.buffer_h)
+        gl_context.make_current()
+        # MjrContext sizes its offscreen buffer from the model. No MSAA: supersampling is
+        # cheaper on a CPU rasteriser.
+        saved = (vis.global_.offwidth, vis.global_.offheight, vis.quality.offsamples)
+        try:
+            vis.global_.offwidth = lay.buffer_w
+            vis.global_.offheight = lay.buffer_h
+            vis.quality.offsamples = 0
+            con = mujoco.MjrContext(self.model, mujoco.mjtFontScale.mjFONTSCALE_50)
+        except Exception:
+            gl_context.free()
+            raise
+        finally:
+            vis.global_.offwidth, vis.global_.offheight, vis.quality.offsamples = saved
+        if con.offWidth < lay.buffer_w or con.offHeight < lay.buffer_h:
+            con.free()
+            gl_context.free()
+            raise ValueError(
+                f"{self.spec} needs a {lay.buffer_w}x{lay.buffer_h} offscreen buffer but OpenGL "
+                f"gave {con.offWidth}x{con.offHeight}; use a smaller width/height/supersample"
+            )
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, con)
+        self._gl, self._con, self._owner_pid = gl_context, con, pid
+        _LIVE_CAMERAS.add(self)
+        self._init_scene()
+
+    def _init_scene(self) -> None:
+        model, lay = self.model, self._layout
+        self._scene = mujoco.MjvScene(model, maxgeom=model.ngeom + 1000)
+        flags = self._scene.flags
+        # Shadows and reflections make a CPU rasteriser ~40x slower and would differ between
+        # views; post-processing belongs to the Filament renderer and only costs time here.
+        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = 0
+        flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
+        flags[mujoco.mjtRndFlag.mjRND_POST_PROCESSING] = 0
+        self._option = mujoco.MjvOption()
+        self._option.sitegroup[:] = 0  # sites are markers, not things a camera sees
+        self._perturb = mujoco.MjvPerturb()
+        self._cameras = []
+        for cam_id in self._cam_ids:
+            cam = mujoco.MjvCamera()
+            cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
+            cam.fixedcamid = cam_id
+            self._cameras.append(cam)
+        self._rects = [
+            mujoco.MjrRect(*lay.origin(i), lay.view_w, lay.view_h) for i in range(lay.n_views)
+        ]
+        self._full_rect = mujoco.MjrRect(0, 0, lay.buffer_w, lay.buffer_h)
+        self._buffer = np.empty((lay.buffer_h, lay.buffer_w, 3), dtype=np.uint8)
+        s = self.spec.supersample
+        self._fine = np.empty((self.spec.height * s, self.spec.width * s, 3), dtype=np.uint8)
+        self._cull_cache = None
+
+    def _ensure_maps(self) -> None:
+        if self._map_x is None:
+            map_x, map_y = _remap_tables(self.spec, self._layout)
+            # Fixed-point maps (1/32 pixel) make cv2.remap about twice as fast.
+            self._map_x, self._map_y = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2)
+
+    # -- rendering ------------------------------------------------------------------------------
+
+    def _headlight_at_eye(self) -> None:
+        # A headlight shines along the axis of whichever view renders, so a wall at the border
+        # of two views would be lit differently in each. Make it shine from the shared eye in
+        # all directions (a 180-degree spot: the classic renderer draws nothing for
+        # point-type lights), which lights every view alike.
+        scn = self._scene
+        eye = 0.5 * (scn.camera[0].pos + scn.camera[1].pos)  # mono = mean of the stereo eyes
+        for j in range(scn.nlight):
+            light = scn.lights[j]
+            if light.headlight:
+                light.headlight = 0
+                light.type = mujoco.mjtLightType.mjLIGHT_SPOT
+                light.cutoff = 180.0
+                light.exponent = 0.0
+                light.pos[:] = eye
+                light.attenuation[:] = (1.0, 0.0, 0.0)
+
+    def _cullable(self) -> tuple[list[Any], NDArray[np.intp], list[int]]:
+        """The scene's model geoms with a finite bounding sphere: (mjvGeoms, geom ids, types).
+
+        Cached while the scene holds as many geoms as before: it is rebuilt from the same
+        model and options every frame, so its composition changes only with its size.
+        """
+        scn = self._scene
+        if self._cull_cache is None or self._cull_cache[0] != scn.ngeom:
+            geoms = []
+            for j in range(scn.ngeom):
+                g = scn.geoms[j]
+                # Planes have no bounding sphere (rbound 0) and are drawn in every view.
+                if g.objtype == mujoco.mjtObj.mjOBJ_GEOM and g.modelrbound > 0.0:
+                    geoms.append(g)
+            ids = np.array([g.objid for g in geoms], dtype=np.intp)
+            self._cull_cache = (scn.ngeom, geoms, ids, [g.type for g in geoms])
+        _, geoms, ids, types = self._cull_cache
+        return geoms, ids, types
+
+    def _visibility(self, data: mujoco.MjData, ids: NDArray[np.intp]) -> NDArray[np.bool_]:
+        """``(n_views, G)``: may view ``i`` see geom ``ids[g]``?
+
+        False when the geom's bounding sphere lies wholly outside one of the four side planes of
+        the view's frustum or behind the camera.
+        """
+        rel = data.geom_xpos[ids] - data.cam_xpos[self._cam_ids[0]]  # (G, 3)
+        frames = data.cam_xmat[self._cam_ids].reshape(-1, 3, 3)  # columns: right, up, back
+        local = rel @ frames  # (V, G, 3)
+        x, y, depth = local[..., 0], local[..., 1], -local[..., 2]
+        th, tv = self._tan_half
+        radius = self.model.geom_rbound[ids]
+        outside = (
+            ((np.abs(x) - depth * th) > radius * math.sqrt(1.0 + th * th))
+            | ((np.abs(y) - depth * tv) > radius * math.sqrt(1.0 + tv * tv))
+            | (depth < -radius)
+        )
+        return ~outside
+
+    def _render_views(self, data: mujoco.MjData) -> None:
+        model, scn, con = self.model, self._scene, self._con
+        changes: list[tuple[list[int], list[int]]] = [([], [])] * len(self._cameras)
+        hidden: list[int] = []
+        geoms: list[Any] = []
+        types: list[int] = []
+        if self._cull:
+            geoms, ids, types = self._cullable()
+            if geoms:
+                # Per view, the geoms to hide and to show again relative to the previous view.
+                shown = np.ones(len(geoms), dtype=bool)
+                changes = []
+                for vis in self._visibility(data, ids):
+                    hide, show = np.flatnonzero(shown & ~vis), np.flatnonzero(vis & ~shown)
+                    changes.append((hide.tolist(), show.tolist()))
+                    shown = vis
+                hidden = np.flatnonzero(~shown).tolist()
+        none = mujoco.mjtGeom.mjGEOM_NONE
+        try:
+            for i, (cam, rect) in enumerate(zip(self._cameras, self._rects, strict=True)):
+                if i > 0:
+                    mujoco.mjv_updateCamera(model, data, cam, scn)
+                hide, show = changes[i]
+                for j in hide:
+                    geoms[j].type = none
+                for j in show:
+                    geoms[j].type = types[j]
+                mujoco.mjr_render(rect, scn, con)
+        except BaseException:
+            hidden = list(range(len(geoms)))
+            raise
+        finally:
+            for j in hidden:
+                geoms[j].type = types[j]
+
+    def render(self, data: mujoco.MjData) -> NDArray[np.uint8]:
+        """Render the panorama seen from the cameras' current pose.
+
+        Args:
+            data: simulation state of ``model``; camera and geom poses are read from it, so
+                call ``mj_forward`` (or step) after moving things.
+        Returns:
+            ``(H, W, 3)`` uint8 RGB, C-contiguous, a new array on every call.
+        """
+        self._ensure_maps()
+        self._ensure_context()
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._con)
+        # The geoms are the same for every view: build the scene once (with view 0 as its
+        # camera), then only move the scene camera from viewport to viewport.
+        mujoco.mjv_updateScene(
+            self.model,
+            data,
+            self._option,
+            self._perturb,
+            self._cameras[0],
+            mujoco.mjtCatBit.mjCAT_ALL,
+            self._scene,
+        )
+        self._headlight_at_eye()
+        self._render_views(data)
+        mujoco.mjr_readPixels(self._buffer, None, self._full_rect, self._con)
+        spec = self.spec
+        out = np.empty((spec.height, spec.width, 3), dtype=np.uint8)
+        if spec.supersample == 1:
+            cv2.remap(self._buffer, self._map_x, self._map_y, cv2.INTER_LINEAR, dst=out)
+        else:
+            cv2.remap(self._buffer, self._map_x, self._map_y, cv2.INTER_LINEAR, dst=self._fine)
+            cv2.resize(self._fine, (spec.width, spec.height), dst=out, interpolation=cv2.INTER_AREA)
+        return out
+
+    # -- cleanup --------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Free the GL context and its buffers; safe to call more than once.
+
+        A later :meth:`render` creates a new context.
+        """
+        con, gl_context = self._con, self._gl
+        self._con = self._gl = None
+        _LIVE_CAMERAS.discard(self)
+        if self._owner_pid != os.getpid():
+            return  # nothing created, or inherited through fork: the parent's to free
+        self._owner_pid = None
+        if con is not None:
+            if gl_context is not None:
+                gl_context.make_current()
+            con.free()
+        if gl_context is not None:
+            gl_context.free()
+
+    def __del__(self) -> None:
+        # At interpreter shutdown the GL bindings may already be gone: nothing left to free.
+        try:
+            self.close()
+        except Exception:
+            pass
