@@ -1,0 +1,185 @@
+"""Batched execution of one layer of nodes: patch extraction and node functions.
+
+A layer's data is a 4-d array ``(N, R, C, D)``: N frames (or locations), an ``R x C`` grid of
+positions, D channels. Patches are cut with ``as_strided`` (no index arrays), columns wrapping
+around by padding with the first columns; all nodes of a layer are then applied with one matrix
+product (weight sharing) or one batched product over nodes (individual nodes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.lib.stride_tricks import as_strided
+from numpy.typing import NDArray
+
+from sfa_gym.sfa.expansion import quadratic_expand
+from sfa_gym.sfa.linear import SFASolution
+from sfa_gym.sfa.spec import LayerSpec
+
+
+def extract_patches(
+    a: NDArray[np.floating],
+    field: tuple[int, int],
+    stride: tuple[int, int],
+    n_cols: int,
+    col_dilation: int = 1,
+) -> NDArray[np.floating]:
+    """Node input vectors of a layer.
+
+    Args:
+        a: ``(N, R_in, C_in, D)`` layer input.
+        field, stride: node receptive field and step ``(rows, cols)``.
+        n_cols: number of node columns; node ``j`` reads input columns
+            ``(j * stride[1] + c * col_dilation) mod C_in`` for ``c < field[1]``. Columns beyond
+            the input wrap around (a non-wrapping layer never reaches them).
+        col_dilation: spacing of the field's columns (1 for a normal layer; the dense
+            rotation grid uses the stride product of the layers below).
+
+    Returns:
+        ``(N, R, n_cols, fr * fc * D)`` C-contiguous, features in (row, col, channel) order.
+    """
+    n, r_in, c_in, d = a.shape
+    fr, fc = field
+    sr, sc = stride
+    rows = (r_in - fr) // sr + 1
+    need = (n_cols - 1) * sc + (fc - 1) * col_dilation + 1
+    if need > c_in:
+        idx = np.arange(need) % c_in
+        a = np.concatenate([a, a[:, :, idx[c_in:]]], axis=2)
+    a = np.ascontiguousarray(a)
+    s_n, s_r, s_c, s_d = a.strides
+    view = as_strided(
+        a,
+        shape=(n, rows, n_cols, fr, fc, d),
+        strides=(s_n, sr * s_r, sc * s_c, s_r, col_dilation * s_c, s_d),
+        writeable=False,
+    )
+    return np.ascontiguousarray(view).reshape(n, rows, n_cols, fr * fc * d)
+
+
+@dataclass
+class Affine:
+    """``y = x @ weight + bias`` per node, with the SFA delta values of its outputs.
+
+    Shapes: shared ``weight (F, k)``, ``bias (k,)``, ``delta (k,)``; individual nodes have
+    leading ``(R, C)`` axes on all three.
+    """
+
+    weight: NDArray[np.float64]
+    bias: NDArray[np.float64]
+    delta: NDArray[np.float64]
+
+    @classmethod
+    def from_solutions(cls, solutions: list[SFASolution], k: int, grid: tuple[int, int] | None):
+        """One affine map from one solution (``grid=None``) or one per node of ``grid``."""
+        ws = [s.projection[:, :k] for s in solutions]
+        bs = [-(s.mean @ w) for s, w in zip(solutions, ws, strict=True)]
+        ds = [s.delta[:k] for s in solutions]
+        if grid is None:
+            return cls(ws[0], bs[0], ds[0])
+        r, c = grid
+        return cls(
+            np.stack(ws).reshape(r, c, *ws[0].shape),
+            np.stack(bs).reshape(r, c, k),
+            np.stack(ds).reshape(r, c, k),
+        )
+
+    @property
+    def shared(self) -> bool:
+        return self.weight.ndim == 2
+
+    @property
+    def out_dim(self) -> int:
+        return int(self.weight.shape[-1])
+
+    def apply(self, x: NDArray[np.floating], features_first: bool = False) -> NDArray[np.floating]:
+        """Apply to node inputs; the result is feature-major ``(k, N, R, C)``, ``x``'s dtype.
+
+        Args:
+            x: ``(N, R, C, F)``, or ``(F, N, R, C)`` with ``features_first``.
+        """
+        w = self.weight.astype(x.dtype, copy=False)
+        b = self.bias.astype(x.dtype, copy=False)
+        if features_first:
+            f, n, r, c = x.shape
+        else:
+            n, r, c, f = x.shape
+        if self.shared:
+            # the transposed operand is passed to BLAS as is (no copy)
+            rows = x.reshape(f, -1) if features_first else x.reshape(-1, f).T
+            y = w.T @ rows
+            y += b[:, None]
+            return y.reshape(-1, n, r, c)
+        # one batched product over nodes: (R, C, k, F) @ (R, C, F, N) -> (R, C, k, N)
+        xs = x.transpose(2, 3, 0, 1) if features_first else x.transpose(1, 2, 3, 0)
+        y = np.matmul(w.transpose(0, 1, 3, 2), xs)
+        y += b[:, :, :, None]
+        return np.ascontiguousarray(y.transpose(2, 3, 0, 1))
+
+
+@dataclass
+class LayerParams:
+    """A fitted layer: its spec, grid, and node maps (``expand`` is None without expansion)."""
+
+    spec: LayerSpec
+    grid: tuple[int, int]
+    reduce: Affine
+    expand: Affine | None
+
+    @property
+    def out_dim(self) -> int:
+        return (self.expand or self.reduce).out_dim
+
+    def nodes(self, x: NDArray[np.floating], clip: float | None) -> NDArray[np.floating]:
+        """Node outputs for node inputs ``x`` ``(N, R, C, F)`` -> ``(N, R, C, out_dim)``."""
+        y = self.reduce.apply(x)
+        if self.expand is not None:
+            y = self.expand.apply(quadratic_expand(y, axis=0), features_first=True)
+        if clip is not None:
+            np.clip(y, -clip, clip, out=y)
+        return np.ascontiguousarray(np.moveaxis(y, 0, -1))
+
+    def forward(
+        self,
+        a: NDArray[np.floating],
+        clip: float | None,
+        n_cols: int | None = None,
+        col_stride: int | None = None,
+        col_dilation: int = 1,
+    ) -> NDArray[np.floating]:
+        """Layer output for layer input ``a`` ``(N, R_in, C_in, D)`` -> ``(N, R, n_cols, out)``.
+
+        By default the layer's own grid. The rotation shortcut runs a layer on a dense periodic
+        grid instead (``n_cols`` nodes, ``col_stride`` and ``col_dilation`` in input columns).
+        """
+        return self.nodes(self.patches(a, n_cols, col_stride, col_dilation), clip)
+
+    def patches(
+        self,
+        a: NDArray[np.floating],
+        n_cols: int | None = None,
+        col_stride: int | None = None,
+        col_dilation: int = 1,
+    ) -> NDArray[np.floating]:
+        """Node inputs ``(N, R, n_cols, F)`` (see :meth:`forward` for the arguments)."""
+        return layer_patches(self.spec, self.grid, a, n_cols, col_stride, col_dilation)
+
+
+def layer_patches(
+    spec: LayerSpec,
+    grid: tuple[int, int],
+    a: NDArray[np.floating],
+    n_cols: int | None = None,
+    col_stride: int | None = None,
+    col_dilation: int = 1,
+) -> NDArray[np.floating]:
+    """Node inputs of a layer with spec ``spec`` and view grid ``grid`` (see ``forward``)."""
+    return extract_patches(
+        a,
+        spec.field,
+        (spec.stride[0], spec.stride[1] if col_stride is None else col_stride),
+        grid[1] if n_cols is None else n_cols,
+        col_dilation,
+    )

@@ -1,0 +1,168 @@
+"""Timing and memory of hierarchical SFA training at paper scale, on synthetic panoramas.
+
+The panoramas are smooth random images (periodic in width) that morph slowly from one location
+to the next along a path, so that consecutive training locations look alike as on a real run.
+Use it to check that a preset trains within budget on a given machine::
+
+    python -m sfa_gym.sfa.benchmark --preset paper_outdoor --locations 5900   # fit_rotations
+    python -m sfa_gym.sfa.benchmark --preset paper_sim --views 2000           # fit on frames
+
+The numbers depend on the machine and its load; BLAS threads follow ``OPENBLAS_NUM_THREADS``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import time
+import warnings
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.ndimage import gaussian_filter
+
+from sfa_gym.sfa import presets
+from sfa_gym.sfa.linear import RankDeficiencyWarning
+from sfa_gym.sfa.network import HierarchicalSFA
+
+__all__ = ["synthetic_panoramas", "benchmark_rotation_training", "benchmark_view_training"]
+
+PRESET_SHAPES = {"paper_sim": (40, 350), "paper_outdoor": (60, 600)}
+
+
+def synthetic_panoramas(
+    n_locations: int, height: int, width: int, seed: int = 0, n_keyframes: int = 64
+) -> NDArray[np.uint8]:
+    """``(n_locations, height, width, 3)`` uint8 panoramas morphing smoothly along a path.
+
+    ``n_keyframes`` random smooth images (Gaussian-filtered noise, periodic in width) are placed
+    evenly along the path; each location blends its two neighbouring keyframes linearly.
+    """
+    rng = np.random.default_rng(seed)
+    n_key = max(2, min(n_keyframes, n_locations))
+    keys = np.empty((n_key, height, width, 3), dtype=np.float32)
+    for i in range(n_key):
+        z = gaussian_filter(
+            rng.standard_normal((height, width, 3)), (height / 20, width / 60, 0), mode="wrap"
+        )
+        keys[i] = z / z.std() * 45.0 + 128.0
+    out = np.empty((n_locations, height, width, 3), dtype=np.uint8)
+    pos = np.linspace(0, n_key - 1, n_locations)
+    for i, p in enumerate(pos):
+        k0 = min(int(p), n_key - 2)
+        frac = np.float32(p - k0)
+        out[i] = np.clip((1 - frac) * keys[k0] + frac * keys[k0 + 1], 0, 255)
+    return out
+
+
+def benchmark_rotation_training(
+    preset: str = "paper_outdoor",
+    n_locations: int = 5900,
+    step: int = 5,
+    seed: int = 0,
+    dtype: str = "float32",
+    n_transform: int = 200,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Train ``preset`` with :meth:`HierarchicalSFA.fit_rotations` on synthetic panoramas.
+
+    Returns:
+        dict with ``fit_seconds`` (wall), ``fit_cpu_seconds`` (this process, all threads),
+        ``peak_rss_mb`` (process peak, including the panoramas themselves, ``panoramas_mb``),
+        ``transform_ms_per_view``, ``n_views``, ``fit_method`` and the setting.
+    """
+    if preset not in PRESET_SHAPES:
+        raise ValueError(f"preset must be one of {sorted(PRESET_SHAPES)}, got {preset!r}")
+    height, width = PRESET_SHAPES[preset]
+    layers = getattr(presets, preset)()
+    pans = synthetic_panoramas(n_locations, height, width, seed)
+    model = HierarchicalSFA(layers, dtype=dtype, progress=progress)
+    t0, c0 = time.perf_counter(), time.process_time()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RankDeficiencyWarning)
+        model.fit_rotations(pans, step=step)
+    fit_s, fit_cpu = time.perf_counter() - t0, time.process_time() - c0
+    views = np.roll(pans[: max(1, n_transform)], -step, axis=2)
+    model.transform(views[:2])
+    t0 = time.perf_counter()
+    model.transform(views)
+    per_view = (time.perf_counter() - t0) / len(views) * 1e3
+    return {
+        "preset": preset,
+        "n_locations": n_locations,
+        "n_views": int(model.n_training_views_),
+        "step": step,
+        "dtype": dtype,
+        "fit_method": model.fit_method_,
+        "fit_seconds": round(fit_s, 2),
+        "fit_cpu_seconds": round(fit_cpu, 2),
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "panoramas_mb": round(pans.nbytes / 2**20, 1),
+        "transform_ms_per_view": round(per_view, 3),
+        "delta_values": [round(float(d), 6) for d in model.delta_values_],
+    }
+
+
+def benchmark_view_training(
+    preset: str = "paper_sim",
+    n_views: int = 2000,
+    seed: int = 0,
+    dtype: str = "float32",
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Train ``preset`` with :meth:`HierarchicalSFA.fit` on ``n_views`` frames of a path.
+
+    No rotation structure to exploit: every frame is a new image (the generic path). Returns
+    the same kind of dict as :func:`benchmark_rotation_training`, plus ``ms_per_view``.
+    """
+    if preset not in PRESET_SHAPES:
+        raise ValueError(f"preset must be one of {sorted(PRESET_SHAPES)}, got {preset!r}")
+    height, width = PRESET_SHAPES[preset]
+    views = synthetic_panoramas(n_views, height, width, seed)
+    model = HierarchicalSFA(getattr(presets, preset)(), dtype=dtype, progress=progress)
+    t0, c0 = time.perf_counter(), time.process_time()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RankDeficiencyWarning)
+        model.fit(views)
+    fit_s, fit_cpu = time.perf_counter() - t0, time.process_time() - c0
+    return {
+        "preset": preset,
+        "n_views": n_views,
+        "dtype": dtype,
+        "fit_method": model.fit_method_,
+        "fit_seconds": round(fit_s, 2),
+        "fit_cpu_seconds": round(fit_cpu, 2),
+        "ms_per_view": round(fit_s / n_views * 1e3, 2),
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+    }
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Command line: print the benchmark result as JSON."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--preset", default="paper_outdoor", choices=sorted(PRESET_SHAPES))
+    parser.add_argument("--locations", type=int, default=5900)
+    parser.add_argument(
+        "--views", type=int, default=0, help="train on this many path frames instead (fit)"
+    )
+    parser.add_argument("--step", type=int, default=5)
+    parser.add_argument("--dtype", default="float32", choices=["float32", "float64"])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--no-progress", action="store_true")
+    args = parser.parse_args(argv)
+    if args.views:
+        result = benchmark_view_training(
+            args.preset, args.views, args.seed, args.dtype, progress=not args.no_progress
+        )
+    else:
+        result = benchmark_rotation_training(
+            args.preset, args.locations, args.step, args.seed, args.dtype,
+            progress=not args.no_progress,
+        )  # fmt: skip
+    print(json.dumps(result, indent=2))
+
+
+if __name__ == "__main__":
+    main()

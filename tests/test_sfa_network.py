@@ -1,0 +1,231 @@
+"""Hierarchical SFA: geometry, rotation shortcut vs brute force, invariants, errors."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from sfa_gym.sfa import (
+    HierarchicalSFA,
+    LayerSpec,
+    NotFittedError,
+    RankDeficiencyWarning,
+    describe,
+    layer_grids,
+    presets,
+    shortcut_applies,
+)
+from sfa_gym.sfa.benchmark import synthetic_panoramas
+
+H, W = 10, 40
+
+
+@pytest.fixture(autouse=True)
+def _quiet_rank_warnings():
+    # tiny networks on little data drop degenerate expanded directions; that is expected here
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RankDeficiencyWarning)
+        yield
+
+
+@pytest.fixture(scope="module")
+def panoramas() -> np.ndarray:
+    return synthetic_panoramas(12, H, W, seed=7, n_keyframes=5)
+
+
+def _views(panoramas: np.ndarray, step: int, window: int | None = None) -> np.ndarray:
+    w = panoramas.shape[2]
+    return np.stack(
+        [np.roll(p, -k * step, axis=1)[:, :window] for p in panoramas for k in range(w // step)]
+    )
+
+
+def _net(layers=None, **kw) -> HierarchicalSFA:
+    kw.setdefault("n_outputs", 4)
+    kw.setdefault("dtype", "float64")
+    return HierarchicalSFA(presets.tiny() if layers is None else layers, progress=False, **kw)
+
+
+def test_preset_grids_are_as_documented():
+    assert layer_grids(presets.paper_sim(), 40, 350) == [(7, 70), (3, 14), (1, 7), (1, 1)]
+    assert layer_grids(presets.paper_outdoor(), 60, 600) == [(11, 120), (5, 40), (2, 10), (1, 1)]
+    assert layer_grids(presets.tiny(), H, W) == [(4, 20), (2, 5), (1, 1)]
+    table = describe(presets.paper_sim(), (40, 350, 3))
+    assert "layer 1: 7 x 70 nodes" in table and "300 -> 32 -> 560 -> 32" in table
+
+
+@pytest.mark.parametrize(("step", "batch"), [(2, 5), (4, 1), (2, None)])
+def test_rotation_shortcut_gives_the_same_model_as_brute_force(panoramas, step, batch):
+    fast = _net(batch_size=batch).fit_rotations(panoramas, step=step, method="shortcut")
+    # the brute-force model recomputes the lower layers instead of caching their outputs
+    slow = _net(batch_size=7, cache_mb=0).fit_rotations(panoramas, step=step, method="brute-force")
+    assert fast.fit_method_ == "rotations-shortcut"
+    assert slow.fit_method_ == "rotations-brute-force"
+    views = _views(panoramas, step)
+    np.testing.assert_allclose(fast.transform(views), slow.transform(views), atol=1e-7)
+    np.testing.assert_allclose(fast.delta_values_, slow.delta_values_, rtol=1e-7)
+    for a, b in zip(fast.layer_params_, slow.layer_params_, strict=True):
+        np.testing.assert_allclose(a.expand.weight, b.expand.weight, rtol=1e-6, atol=1e-8)
+
+
+def test_rotation_shortcut_with_a_cropped_window_and_a_non_wrapping_network(panoramas):
+    l1 = LayerSpec(field=(4, 4), stride=(2, 2), reduce_dim=6, out_dim=8, wrap=False)
+    l2 = LayerSpec(field=(2, 4), stride=(2, 3), reduce_dim=6, out_dim=8, wrap=False)
+    grid = layer_grids([l1, l2], H, 24)[-1]
+    layers = [l1, l2, LayerSpec(field=grid, stride=grid, reduce_dim=6, out_dim=8, wrap=False)]
+    assert shortcut_applies(layers, W, step=2, window=24)
+    assert not shortcut_applies(presets.tiny(), W, step=2, window=24)  # tiny wraps
+    fast = _net(layers, batch_size=4).fit_rotations(panoramas, step=2, window=24)
+    slow = _net(layers).fit_rotations(panoramas, step=2, window=24, method="brute-force")
+    assert fast.fit_method_ == "rotations-shortcut" and fast.input_shape_ == (H, 24, 3)
+    views = _views(panoramas, 2, 24)
+    np.testing.assert_allclose(fast.transform(views), slow.transform(views), atol=1e-7)
+    y = fast.transform_rotations(panoramas, step=2).reshape(-1, 4)
+    np.testing.assert_allclose(y, fast.transform(views), atol=1e-9)
+
+
+@pytest.mark.parametrize("step", [2, 8])
+def test_transform_rotations_equals_transform_of_every_view(panoramas, step):
+    model = _net().fit_rotations(panoramas, step=4)
+    y = model.transform_rotations(panoramas, step=step)
+    assert y.shape == (len(panoramas), W // step, 4)
+    np.testing.assert_allclose(
+        y.reshape(-1, 4), model.transform(_views(panoramas, step)), atol=1e-9
+    )
+    single = _net(weight_sharing=False).fit(_views(panoramas[:4], 4))  # no shortcut: view by view
+    np.testing.assert_allclose(
+        single.transform_rotations(panoramas[:2], step=step).reshape(-1, 4),
+        single.transform(_views(panoramas[:2], step)),
+        atol=1e-12,
+    )
+
+
+def test_fit_on_materialised_views_equals_brute_force_rotations(panoramas):
+    views = _views(panoramas, 4)
+    a = _net(batch_size=9).fit(views)
+    b = _net().fit_rotations(panoramas, step=4, method="brute-force")
+    np.testing.assert_allclose(a.transform(views), b.transform(views), atol=1e-9)
+    assert a.fit_method_ == "views" and a.n_training_views_ == len(views)
+
+
+def test_training_outputs_are_centred_white_and_ordered(panoramas):
+    views = _views(panoramas, 4)
+    model = _net().fit(views)
+    y = model.transform(views)
+    assert y.shape == (len(views), 4) and y.dtype == np.float64
+    np.testing.assert_allclose(y.mean(axis=0), 0.0, atol=1e-8)
+    np.testing.assert_allclose(np.cov(y.T, bias=True), np.eye(4), atol=1e-6)
+    np.testing.assert_allclose(np.mean(np.diff(y, axis=0) ** 2, axis=0), model.delta_values_)
+    assert np.all(np.diff(model.delta_values_) >= 0)
+
+
+def test_rotation_training_gives_orientation_invariant_features():
+    pans = synthetic_panoramas(40, H, W, seed=3, n_keyframes=6)
+    model = _net(dtype="float32").fit_rotations(pans, step=2)
+    y = model.transform(_views(pans, 2)).reshape(40, W // 2, 4)
+    eta_phi = y.var(axis=1).mean(axis=0)  # mean variance over orientations, per output
+    eta_r = y.mean(axis=1).var(axis=0)  # variance over locations of the mean per location
+    assert np.all(eta_phi < 0.05), eta_phi
+    assert np.all(eta_r > 0.9), eta_r
+
+
+def test_sequence_ids_separate_runs():
+    views = synthetic_panoramas(50, H, W, seed=11, n_keyframes=6)  # a path, no rotation
+    ids = np.repeat([0, 1], [20, 30])
+    split = _net().fit(views, sequence_ids=ids)
+    joined = _net().fit(views)
+    assert not np.allclose(split.transform(views), joined.transform(views), atol=1e-6)
+    np.testing.assert_allclose(
+        _net(batch_size=7).fit(views, sequence_ids=ids).transform(views),
+        split.transform(views),
+        atol=1e-9,
+    )
+
+
+def test_float32_model_matches_float64_and_chunking_does_not_flip_signs(panoramas):
+    views = _views(panoramas, 4)
+    ref = _net().fit_rotations(panoramas, step=4).transform(views)
+    for batch in (1, 5, None):
+        y = _net(dtype="float32", batch_size=batch).fit_rotations(panoramas, step=4)
+        y = y.transform(views)
+        for j in range(4):
+            assert np.corrcoef(y[:, j], ref[:, j])[0, 1] > 0.999
+
+
+def test_individually_learned_nodes(panoramas):
+    shared = _net().fit_rotations(panoramas, step=4)
+    single = _net(weight_sharing=False).fit_rotations(panoramas, step=4)
+    assert single.fit_method_ == "rotations-brute-force"
+    assert single.layer_params_[0].reduce.weight.shape == (4, 20, 48, 6)
+    views = _views(panoramas, 4)
+    a = _net(weight_sharing=False, batch_size=13).fit(views)
+    np.testing.assert_allclose(a.transform(views), single.transform(views), atol=1e-8)
+    assert not np.allclose(single.transform(views), shared.transform(views), atol=1e-3)
+
+
+def test_training_is_deterministic(panoramas):
+    a = _net(dtype="float32").fit_rotations(panoramas, step=4)
+    b = _net(dtype="float32").fit_rotations(panoramas, step=4)
+    views = _views(panoramas[:2], 4)
+    np.testing.assert_array_equal(a.transform(views), b.transform(views))
+
+
+def test_progress_flag(panoramas, capsys):
+    _net().fit_rotations(panoramas[:3], step=8)
+    assert capsys.readouterr().err == ""
+    HierarchicalSFA(presets.tiny(), n_outputs=4, progress=True).fit_rotations(panoramas[:3], step=8)
+    assert "SFA layer" in capsys.readouterr().err
+
+
+def test_layer_spec_validation():
+    with pytest.raises(ValueError, match="field"):
+        LayerSpec(field=(0, 3), stride=(1, 1), reduce_dim=4, out_dim=4)
+    with pytest.raises(ValueError, match="at most 300"):
+        LayerSpec(field=(2, 2), stride=(1, 1), reduce_dim=4, out_dim=301)
+    with pytest.raises(ValueError, match="expansion"):
+        LayerSpec(field=(2, 2), stride=(1, 1), reduce_dim=4, out_dim=4, expansion="cubic")
+    with pytest.raises(ValueError, match="must divide the width 41"):
+        layer_grids(presets.tiny()[:1], H, 41)
+    with pytest.raises(ValueError, match="does not fit"):
+        layer_grids([LayerSpec(field=(20, 4), stride=(1, 1), reduce_dim=4, out_dim=4)], H, W)
+
+
+def test_misuse_errors(panoramas):
+    views = _views(panoramas[:2], 8)
+    with pytest.raises(NotFittedError):
+        _net().transform(views)
+    with pytest.raises(TypeError, match="uint8"):
+        _net().fit(views.astype(np.float32))
+    with pytest.raises(ValueError, match=r"\(N, H, W, 3\)"):
+        _net().fit(views[..., :2])
+    with pytest.raises(ValueError, match="at least 2"):
+        _net().fit(views[:1])
+    with pytest.raises(ValueError, match="single node"):
+        _net(presets.tiny()[:2]).fit(views)
+    with pytest.raises(ValueError, match="n_outputs"):
+        _net(n_outputs=9).fit(views)
+    with pytest.raises(ValueError, match="not a multiple of step"):
+        _net().fit_rotations(panoramas, step=3)
+    with pytest.raises(ValueError, match="shortcut does not apply"):  # wraps a cropped view
+        _net(presets.tiny(H, 32)).fit_rotations(panoramas, step=2, window=32, method="shortcut")
+    model = _net().fit(views)
+    with pytest.raises(ValueError, match="trained on"):
+        model.transform(views[:, :, :32])
+    with pytest.raises(ValueError, match="no variance"):
+        _net().fit(np.full((6, H, W, 3), 9, dtype=np.uint8))
+
+
+def test_layer_without_expansion(panoramas, tmp_path):
+    layers = presets.tiny()
+    layers[1] = LayerSpec(field=(2, 4), stride=(2, 4), reduce_dim=10, out_dim=6, expansion="none")
+    fast = _net(layers).fit_rotations(panoramas, step=4)
+    slow = _net(layers).fit_rotations(panoramas, step=4, method="brute-force")
+    assert fast.layer_params_[1].expand is None
+    assert fast.layer_params_[1].reduce.weight.shape == (64, 6)
+    views = _views(panoramas, 4)
+    np.testing.assert_allclose(fast.transform(views), slow.transform(views), atol=1e-7)
+    fast.save(tmp_path / "m.npz")
+    loaded = HierarchicalSFA.load(tmp_path / "m.npz")
+    np.testing.assert_array_equal(loaded.transform(views), fast.transform(views))
