@@ -61,20 +61,31 @@ class SlowFeatureMethod:
     def transform(self, views: NDArray[np.uint8]) -> NDArray[np.float64]:
         return self.model_.transform(views)
 
+    def transform_rotations(self, panoramas: NDArray[np.uint8], step: int) -> NDArray[np.float64]:
+        """Features of every rotation of every panorama, ``(L, K, n_outputs)``, computed with
+        the rotation shortcut (the lower layers run once per panorama)."""
+        return self.model_.transform_rotations(panoramas, step=step)
+
 
 def rotation_features(
     method: FeatureMethod, panoramas: NDArray[np.uint8], step: int, desc: str, progress: bool
 ) -> NDArray[np.float64]:
-    """Features of every rotated view, ``(L, K, k)``, a few locations at a time."""
+    """Features of every rotated view, ``(L, K, k)``, a few locations at a time.
+
+    A method with ``transform_rotations(panoramas, step)`` computes them itself (hierarchical
+    SFA exploits that a rotation permutes its layer-1 patches); the others see every view.
+    """
     n_rot = n_rotations(panoramas.shape[2], step)
     per_chunk = max(1, 4096 // n_rot)
     out = []
     for i in tqdm(range(0, len(panoramas), per_chunk), desc=desc, disable=not progress):
         block = panoramas[i : i + per_chunk]
-        views = np.concatenate([rotated_views(p, step)[0] for p in block])
-        out.append(
-            np.asarray(method.transform(views), dtype=np.float64).reshape(len(block), n_rot, -1)
-        )
+        if hasattr(method, "transform_rotations"):
+            features = method.transform_rotations(block, step)
+        else:
+            views = np.concatenate([rotated_views(p, step)[0] for p in block])
+            features = method.transform(views)
+        out.append(np.asarray(features, dtype=np.float64).reshape(len(block), n_rot, -1))
     return np.concatenate(out)
 
 
@@ -95,7 +106,15 @@ def mae_dict(result: Any) -> dict[str, list[float]]:
 
 
 def format_table(results: dict[str, Any]) -> str:
-    """A plain-text table of the MAE (% of the range) per method and regression."""
+    """A plain-text table of the MAE per method and regression, for either protocol.
+
+    Grid protocol: MAE in % of the range over the paper's random splits and fitted on the
+    training positions. Trajectory protocol: MAE on the test run in metres and %, its standard
+    deviation, and the MAE in % over the test frames in the region never visited in training.
+    The last row is the paper's.
+    """
+    if results.get("protocol") == "trajectory":
+        return _format_trajectory_table(results)
     lines = [
         f"{'method':<20} {'regression':<10} {'splits x %':>10} {'splits y %':>10} "
         f"{'test x %':>9} {'test y %':>9} {'max eta_phi':>11}"
@@ -114,5 +133,33 @@ def format_table(results: dict[str, Any]) -> str:
     lines.append(
         f"{'paper (2013)':<20} {'linear':<10} {paper['mae_percent'][0]:>10.2f} "
         f"{paper['mae_percent'][1]:>10.2f} {'-':>9} {'-':>9} {paper['eta_phi_max']:>11.3f}"
+    )
+    return "\n".join(lines)
+
+
+def _format_trajectory_table(results: dict[str, Any]) -> str:
+    head = (
+        f"{'method':<20} {'regression':<10} {'x m':>6} {'y m':>6} {'x %':>6} {'y %':>6} "
+        f"{'std x':>6} {'std y':>6} {'excl x %':>8} {'excl y %':>8} {'max eta_phi':>11}"
+    )
+    lines = [head]
+
+    def row(name, reg, t, excluded, eta_phi_max) -> str:
+        e = ("-", "-") if excluded is None else [f"{v:.2f}" for v in excluded["mae_percent"]]
+        return (
+            f"{name:<20} {reg:<10} {t['mae_m'][0]:>6.3f} {t['mae_m'][1]:>6.3f} "
+            f"{t['mae_percent'][0]:>6.2f} {t['mae_percent'][1]:>6.2f} "
+            f"{t['std_m'][0]:>6.3f} {t['std_m'][1]:>6.3f} {e[0]:>8} {e[1]:>8} "
+            f"{eta_phi_max:>11.3f}"
+        )
+
+    for name, entry in results["methods"].items():
+        for reg, value in entry.items():
+            if isinstance(value, dict):
+                lines.append(
+                    row(name, reg, value["train_test"], value["excluded"], max(entry["eta_phi"]))
+                )
+    lines.append(
+        row("paper (2013)", "linear", results["paper"], None, results["paper"]["eta_phi_max"])
     )
     return "\n".join(lines)
