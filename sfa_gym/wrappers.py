@@ -147,7 +147,11 @@ class SlowFeatureObservation(
 
     def observation(self, observation: NDArray[np.uint8]) -> NDArray[np.float32]:
         """Features ``(k,)`` float32 of one panorama ``(H, W, 3)`` uint8."""
-        if self.average_rotations:
+        if self.average_rotations and hasattr(self.model, "transform_rotations"):
+            # hierarchical SFA computes all rotations at once, its lower layers only once
+            rotations = self.model.transform_rotations(observation[None], step=self.rotation_step)
+            features = np.asarray(rotations)[0].mean(axis=0)
+        elif self.average_rotations:
             views, _ = rotated_views(observation, step=self.rotation_step, window=self._window)
             features = np.asarray(self.model.transform(views)).mean(axis=0)
         else:
