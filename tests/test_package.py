@@ -69,3 +69,22 @@ def test_grid_order_rejects_bad_input():
         grid_order(np.zeros((3, 2), dtype=int), kind="zigzag")
     with pytest.raises(ValueError, match=r"\(N, 2\)"):
         grid_order(np.zeros((3, 3), dtype=int))
+
+
+def test_sfa_engine_imports_neither_gymnasium_nor_mujoco():
+    import ast
+
+    for path in sorted((ROOT / "sfa_gym" / "sfa").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            else:
+                continue
+            for name in names:
+                root = name.split(".")[0]
+                assert root not in {"gymnasium", "mujoco"}, f"{path.name} imports {name}"
+                assert not name.startswith("sfa_gym.") or name.startswith(
+                    ("sfa_gym.sfa", "sfa_gym._types")
+                ), f"{path.name} imports {name}"
