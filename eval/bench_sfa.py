@@ -1,0 +1,549 @@
+"""Benchmark: our hierarchical SFA engine against MDP 3.6, and the paper's outdoor scale.
+
+Part 1, same architecture and data for both: the ``paper_sim`` preset (four layers) trained on
+``--frames`` views of 40 x 350 along a smooth path (seeded synthetic panoramas, or rendered by
+the env with ``--rendered``); per backend: training time per frame, peak memory, inference
+time per panorama, and the agreement of the eight slow features on held-out views (|corr| per
+output, and the canonical correlations of the two 8-d feature spaces).
+
+Part 2, the paper's outdoor scale with our engine only: the ``paper_outdoor`` preset trained
+by ``HierarchicalSFA.fit_rotations`` on ``--locations`` panoramas of 60 x 600 (synthetic,
+seeded, or rendered) x 120 rotation windows (5 px steps): training time and peak memory.
+
+Every measurement runs in its own child process, so that each peak resident set size
+(``ru_maxrss`` of that process) belongs to one backend; the data is written once to a
+temporary directory and loaded by the children (their RSS right after loading is reported as
+the baseline). The machine may be shared: times are wall-clock and noisy.
+
+Usage (from the repository root)::
+
+    .venv/bin/python eval/bench_sfa.py                                  # full: 3000 / 5900
+    .venv/bin/python eval/bench_sfa.py --frames 200 --test-frames 50 --locations 40  # smoke
+
+Writes ``eval/results/bench_sfa.json`` (``--json``) and prints a table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script from a checkout
+    sys.path.insert(0, str(ROOT))
+
+N_OUTPUTS = 8
+LAYER_VIEWS = 50
+"""Held-out views whose outputs are compared layer by layer."""
+TARGETS = {
+    "speedup_vs_mdp_min": 20.0,
+    "paper_scale_seconds_max": 600.0,
+    "paper_scale_peak_gb_max": 4.0,
+    "inference_ms_per_panorama_max": 2.0,
+}
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """What to run.
+
+    Attributes:
+        frames: training views (40 x 350) for the comparison with MDP.
+        test_frames: held-out views for inference timing and feature agreement.
+        locations: panoramas (60 x 600) for the paper-scale run (120 rotations each).
+        rotation_step: rotation step in columns for the paper-scale run.
+        seed: seed of the synthetic world and paths.
+        rendered: render the views with the env instead of the synthetic world.
+        mdp_batch: frames per MDP training chunk (its memory grows with it).
+        mdp_rank_method: how MDP's SFA nodes treat near-singular covariances: ``"relative"``
+            (default: drop the directions below our engine's relative rank tolerance, the same
+            rule as ours, see ``mdp_bridge.build_mdp_network(rank_tol=...)``), or one of MDP's
+            ``rank_deficit_method`` values: ``"none"`` (MDP's default; fails on singular
+            covariances) or ``"auto"``/``"pca"`` (absolute threshold, and a pre-check that
+            drops the slowest linear term behind every expansion). The paper-sim network's
+            upper layers are strongly rank deficient (e.g. ~40 % of layer 3's inputs), and which
+            near-null directions a node keeps changes the features above it: with another rule
+            the two networks learn different (equally valid) features.
+        skip_mdp: run our engine only in part 1 (no ratios).
+        skip_paper: skip part 2.
+        json_path: where to write the results.
+    """
+
+    frames: int = 3000
+    test_frames: int = 500
+    locations: int = 5900
+    rotation_step: int = 5
+    seed: int = 0
+    rendered: bool = False
+    mdp_batch: int = 250
+    mdp_rank_method: str = "relative"
+    skip_mdp: bool = False
+    skip_paper: bool = False
+    json_path: str = str(ROOT / "eval" / "results" / "bench_sfa.json")
+
+
+# -- data ---------------------------------------------------------------------------------------
+def smooth_path(n: int, seed: int, half_size: float = 1.0) -> NDArray[np.float64]:
+    """``(n, 3)`` poses ``(x, y, yaw)`` along an open, smooth path in ``[-half_size, half_size]^2``.
+
+    The position is a sum of low-frequency sinusoids; the heading turns slowly (one half turn
+    over the path plus a small random walk), so views change smoothly from frame to frame.
+    """
+    rng = np.random.default_rng(seed)
+    s = np.linspace(0.0, 1.0, n)[:, None]
+    xy = np.zeros((n, 2))
+    for f in (1, 2, 3, 5, 8):
+        xy += rng.normal(0, 0.45 / f, 2) * np.sin(
+            1.3 * np.pi * f * s + rng.uniform(0, 2 * np.pi, 2)
+        )
+    xy = np.clip(xy, -1.0, 1.0) * half_size
+    yaw = np.pi * s[:, 0] + np.cumsum(rng.normal(0, 0.02, n))
+    return np.c_[xy, yaw]
+
+
+def synthetic_panoramas(
+    poses: NDArray[np.floating],
+    height: int,
+    width: int,
+    seed: int = 0,
+    n_landmarks: int = 24,
+    progress: bool = True,
+) -> NDArray[np.uint8]:
+    """Seeded synthetic panoramas ``(N, height, width, 3)`` uint8 at ``poses`` ``(N, 3)``.
+
+    ``n_landmarks`` blocks of random colour, width (0.15-0.6 m) and height (0.2-1.5 m) stand
+    1.8-4 m from the origin; the camera is 0.5 m above the ground with a 40 degree vertical
+    field of view. A block covers the columns within its angular half-width and the rows
+    between the ground and its top (soft edges, colours added) over a sky/ground gradient.
+    Gaussian pixel noise (sd 2, seeded) keeps patch covariances full rank. Column ``c`` looks
+    at azimuth ``yaw + 2*pi*c/width`` (periodic in width, as the env's panoramas).
+    """
+    from tqdm.auto import tqdm
+
+    poses = np.asarray(poses, dtype=np.float64)
+    rng = np.random.default_rng(seed)
+    ang, rad = rng.uniform(0, 2 * np.pi, n_landmarks), rng.uniform(1.8, 4.0, n_landmarks)
+    xy = np.c_[rad * np.cos(ang), rad * np.sin(ang)]
+    half = rng.uniform(0.15, 0.6, n_landmarks)
+    top = rng.uniform(0.2, 1.5, n_landmarks)
+    colour = rng.uniform(-120, 120, (n_landmarks, 3)).astype(np.float32)
+    elev = np.deg2rad(np.linspace(20.0, -20.0, height))
+    g = np.clip(elev / np.deg2rad(20.0), -1, 1)[:, None]
+    background = np.where(g >= 0, [140.0, 170.0, 210.0] + 40 * g, [110.0, 100.0, 80.0] + 40 * g)
+    soft_az, soft_el = 2 * np.pi / width, np.deg2rad(40.0) / height
+    noise = np.random.default_rng(seed + 1)
+    out = np.empty((len(poses), height, width, 3), dtype=np.uint8)
+    batch = max(1, 2_000_000 // (height * width))
+    for i0 in tqdm(range(0, len(poses), batch), desc="panoramas", disable=not progress):
+        p = poses[i0 : i0 + batch]
+        img = np.empty((len(p), height, width, 3), dtype=np.float32)
+        img[:] = background[None, :, None, :]
+        theta = p[:, 2:3] + 2 * np.pi * np.arange(width) / width
+        for k in range(n_landmarks):
+            d = xy[k] - p[:, :2]
+            dist = np.hypot(d[:, 0], d[:, 1])[:, None]
+            off = np.angle(np.exp(1j * (theta - np.arctan2(d[:, 1], d[:, 0])[:, None])))
+            a_az = 1 / (1 + np.exp((np.abs(off) - np.arctan(half[k] / dist)) / soft_az))
+            e_top, e_bot = np.arctan((top[k] - 0.5) / dist), np.arctan(-0.5 / dist)
+            a_el = 1 / (
+                (1 + np.exp((elev - e_top) / soft_el)) * (1 + np.exp((e_bot - elev) / soft_el))
+            )
+            alpha = a_el.astype(np.float32)[:, :, None] * a_az.astype(np.float32)[:, None, :]
+            img += alpha[..., None] * colour[k]
+        img += noise.normal(0, 2.0, img.shape).astype(np.float32)
+        out[i0 : i0 + len(p)] = np.clip(np.rint(img), 0, 255)
+    return out
+
+
+def rendered_panoramas(
+    env_id: str, poses: NDArray[np.floating], progress: bool = True
+) -> NDArray[np.uint8]:
+    """Panoramas rendered by the env at ``poses`` (unit-square path scaled to the arena)."""
+    import gymnasium as gym
+    from tqdm.auto import tqdm
+
+    import sfa_gym  # noqa: F401  (registers the envs)
+
+    env = gym.make(env_id)
+    try:
+        xmin, xmax, ymin, ymax = env.unwrapped.arena_bounds
+        cx, cy = (xmin + xmax) / 2, (ymin + ymax) / 2
+        hx, hy = 0.45 * (xmax - xmin), 0.45 * (ymax - ymin)
+        out = None
+        for i, (x, y, yaw) in enumerate(tqdm(poses, desc=f"render {env_id}", disable=not progress)):
+            obs, _ = env.reset(seed=0, options={"pose": (cx + hx * x, cy + hy * y, float(yaw))})
+            if out is None:
+                out = np.empty((len(poses), *obs.shape), dtype=np.uint8)
+            out[i] = obs
+        return out
+    finally:
+        env.close()
+
+
+def blas_cores() -> dict[str, str]:
+    """OpenBLAS kernel in use by numpy's and scipy's bundled OpenBLAS (best effort).
+
+    ``OPENBLAS_CORETYPE`` (set on some machines for old OpenBLAS builds) forces a kernel; an
+    older kernel than the CPU supports makes every product slower, so the results record it.
+    """
+    import ctypes
+    import glob
+
+    import scipy
+
+    cores = {}
+    for pkg in (np, scipy):
+        libs = glob.glob(os.path.join(os.path.dirname(pkg.__file__) + ".libs", "*openblas*"))
+        for lib in libs:
+            try:
+                handle = ctypes.CDLL(lib)
+            except OSError:
+                continue
+            for name in ("scipy_openblas_get_corename64_", "scipy_openblas_get_corename"):
+                fn = getattr(handle, name, None)
+                if fn is not None:
+                    fn.restype = ctypes.c_char_p
+                    cores[pkg.__name__] = fn().decode()
+                    break
+    return cores
+
+
+def _ours_rank_tol() -> float:
+    """The relative rank tolerance our engine uses with its default settings."""
+    from sfa_gym.sfa import HierarchicalSFA, network
+
+    model = HierarchicalSFA([], progress=False)
+    return model.rank_tol if model.rank_tol is not None else network.DEFAULT_RANK_TOL[model.dtype]
+
+
+# -- child processes ----------------------------------------------------------------------------
+def _rss_mb() -> float:
+    """Peak resident set size of this process so far, MB (Linux reports kB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def _inference(model: Any, views: NDArray[np.uint8]) -> tuple[NDArray[np.float64], float, float]:
+    """Features of ``views``, ms per panorama in one batch, and ms for a single panorama."""
+    model.transform(views[:2])  # warm-up (allocations, first-call overheads)
+    t0 = time.perf_counter()
+    y = model.transform(views)
+    batch_ms = 1e3 * (time.perf_counter() - t0) / len(views)
+    reps = min(20, len(views))
+    t0 = time.perf_counter()
+    for i in range(reps):
+        model.transform(views[i : i + 1])
+    single_ms = 1e3 * (time.perf_counter() - t0) / reps
+    return y, batch_ms, single_ms
+
+
+def _child(
+    kind: str, data_dir: Path, mdp_batch: int, mdp_rank_method: str, step: int
+) -> dict[str, Any]:
+    from sfa_gym.sfa import HierarchicalSFA, presets
+
+    result: dict[str, Any] = {"kind": kind}
+    if kind == "paper":
+        panoramas = np.load(data_dir / "paper_panoramas.npy")
+        result["rss_after_data_mb"] = _rss_mb()
+        model = HierarchicalSFA(presets.paper_outdoor(), N_OUTPUTS, progress=False)
+        t0, c0 = time.perf_counter(), time.process_time()
+        model.fit_rotations(panoramas, step=step)
+        result["fit_seconds"] = time.perf_counter() - t0
+        result["fit_cpu_seconds"] = time.process_time() - c0
+        result["fit_method"] = model.fit_method_
+        result["n_training_views"] = model.n_training_views_
+        result["peak_rss_after_fit_mb"] = _rss_mb()
+        _, result["infer_ms_batch"], result["infer_ms_single"] = _inference(
+            model, panoramas[: min(200, len(panoramas))]
+        )
+        result["delta_values"] = model.delta_values_.tolist()
+    else:
+        train = np.load(data_dir / "train.npy")
+        test = np.load(data_dir / "test.npy")
+        result["rss_after_data_mb"] = _rss_mb()
+        if kind == "ours":
+            model = HierarchicalSFA(presets.paper_sim(), N_OUTPUTS, progress=False)
+            result["settings"] = {"dtype": model.dtype, "memory_mb": model.memory_mb}
+        else:
+            from sfa_gym.sfa.mdp_bridge import MDPHierarchicalSFA
+
+            relative = mdp_rank_method == "relative"
+            model = MDPHierarchicalSFA(
+                presets.paper_sim(),
+                N_OUTPUTS,
+                batch_size=mdp_batch,
+                rank_deficit_method="none" if relative else mdp_rank_method,
+                rank_tol=_ours_rank_tol() if relative else None,
+                progress=False,
+            )
+            result["settings"] = {
+                "dtype": "float64",
+                "batch_size": mdp_batch,
+                "rank_deficit_method": model.rank_deficit_method,
+                "rank_tol": model.rank_tol,
+            }
+        t0, c0 = time.perf_counter(), time.process_time()
+        model.fit(train)
+        result["fit_seconds"] = time.perf_counter() - t0
+        result["fit_cpu_seconds"] = time.process_time() - c0
+        result["fit_ms_per_frame"] = 1e3 * result["fit_seconds"] / len(train)
+        result["peak_rss_after_fit_mb"] = _rss_mb()
+        y, result["infer_ms_batch"], result["infer_ms_single"] = _inference(model, test)
+        np.save(data_dir / f"features_{kind}.npy", y)
+        n_layers = len(presets.paper_sim())
+        grids = {
+            f"layer{i}": np.asarray(model.forward(test[:LAYER_VIEWS], i), dtype=np.float32)
+            for i in range(1, n_layers + 1)
+        }
+        np.savez(data_dir / f"layers_{kind}.npz", **grids)
+        result["delta_values"] = np.asarray(model.delta_values_).tolist()
+    result["peak_rss_mb"] = _rss_mb()
+    return result
+
+
+def _run_child(kind: str, data_dir: Path, cfg: BenchConfig) -> dict[str, Any]:
+    cmd = [
+        sys.executable,
+        str(Path(__file__).resolve()),
+        "--_child",
+        kind,
+        "--_data",
+        str(data_dir),
+        "--mdp-batch",
+        str(cfg.mdp_batch),
+        "--mdp-rank-method",
+        cfg.mdp_rank_method,
+        "--rotation-step",
+        str(cfg.rotation_step),
+    ]
+    print(f"[{kind}] running in a child process ...", flush=True)
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    elapsed = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise RuntimeError(f"the {kind!r} child failed:\n{proc.stderr[-4000:]}")
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    print(
+        f"[{kind}] fit {result['fit_seconds']:.1f} s, "
+        f"peak RSS {result['peak_rss_after_fit_mb']:.0f} MB "
+        f"(child process {elapsed:.0f} s)",
+        flush=True,
+    )
+    return result
+
+
+# -- comparison ---------------------------------------------------------------------------------
+def feature_agreement(a: NDArray[np.floating], b: NDArray[np.floating]) -> dict[str, list[float]]:
+    """|corr| of matching outputs and canonical correlations of the two feature spaces."""
+    k = a.shape[1]
+    corr = np.abs(np.corrcoef(a.T, b.T)[:k, k:].diagonal())
+    qa, _ = np.linalg.qr(a - a.mean(0))
+    qb, _ = np.linalg.qr(b - b.mean(0))
+    canon = np.linalg.svd(qa.T @ qb, compute_uv=False)
+    return {"abs_corr": corr.round(5).tolist(), "canonical_corr": canon.round(5).tolist()}
+
+
+def layer_agreement(a_path: Path, b_path: Path) -> dict[str, dict[str, float]]:
+    """Per layer: |corr| of each output channel of the two networks over all nodes and views
+    (min and median over channels)."""
+    out = {}
+    with np.load(a_path, allow_pickle=False) as a, np.load(b_path, allow_pickle=False) as b:
+        for name in a.files:
+            x, y = a[name].astype(np.float64), b[name].astype(np.float64)
+            k = x.shape[-1]
+            x, y = x.reshape(-1, k), y.reshape(-1, k)
+            corr = np.abs(np.corrcoef(x.T, y.T)[:k, k:].diagonal())
+            out[name] = {
+                "min": round(float(corr.min()), 5),
+                "median": round(float(np.median(corr)), 5),
+            }
+    return out
+
+
+def _table(results: dict[str, Any]) -> str:
+    ours, mdp = results.get("ours"), results.get("mdp")
+    rows = [("quantity", "ours", "MDP", "MDP / ours")]
+
+    def row(name: str, key: str, fmt: str) -> None:
+        o = ours[key]
+        m = mdp[key] if mdp else None
+        ratio = f"{m / o:.1f}x" if m is not None and o > 0 else "-"
+        rows.append((name, format(o, fmt), "-" if m is None else format(m, fmt), ratio))
+
+    if ours:
+        row("train ms / frame", "fit_ms_per_frame", ".2f")
+        row("train total s", "fit_seconds", ".1f")
+        row("train CPU s (all threads)", "fit_cpu_seconds", ".1f")
+        row("peak RSS during fit MB", "peak_rss_after_fit_mb", ".0f")
+        row("RSS after data MB", "rss_after_data_mb", ".0f")
+        row("infer ms / panorama (batch)", "infer_ms_batch", ".3f")
+        row("infer ms (single panorama)", "infer_ms_single", ".2f")
+    widths = [max(len(r[i]) for r in rows) for i in range(4)]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+    if "agreement" in results:
+        lines.append(f"|corr| per output:    {results['agreement']['abs_corr']}")
+        lines.append(f"canonical corr:       {results['agreement']['canonical_corr']}")
+        for name, stats in results["agreement"]["per_layer"].items():
+            lines.append(f"{name} channels |corr|: min {stats['min']}, median {stats['median']}")
+    paper = results.get("paper")
+    if paper:
+        lines.append(
+            f"paper scale ({paper['n_training_views']} views 60x600, {paper['fit_method']}): "
+            f"fit {paper['fit_seconds']:.1f} s (CPU {paper['fit_cpu_seconds']:.0f} s), "
+            f"peak RSS {paper['peak_rss_after_fit_mb']:.0f} MB "
+            f"(data {paper['rss_after_data_mb']:.0f} MB), "
+            f"infer {paper['infer_ms_batch']:.2f} ms / 600x60 panorama"
+        )
+    return "\n".join(lines)
+
+
+def _checks(results: dict[str, Any]) -> dict[str, bool]:
+    checks = {}
+    ours, mdp, paper = results.get("ours"), results.get("mdp"), results.get("paper")
+    if ours and mdp:
+        speedup = mdp["fit_ms_per_frame"] / ours["fit_ms_per_frame"]
+        checks["speedup_vs_mdp"] = speedup >= TARGETS["speedup_vs_mdp_min"]
+    if ours:
+        checks["inference_ms"] = ours["infer_ms_batch"] <= TARGETS["inference_ms_per_panorama_max"]
+    if paper:
+        checks["paper_scale_time"] = paper["fit_seconds"] <= TARGETS["paper_scale_seconds_max"]
+        checks["paper_scale_memory"] = (
+            paper["peak_rss_after_fit_mb"] / 1024 <= TARGETS["paper_scale_peak_gb_max"]
+        )
+    return checks
+
+
+def run(cfg: BenchConfig, progress: bool = True) -> dict[str, Any]:
+    """Run the benchmark (see the module docstring); returns the JSON-able results."""
+    results: dict[str, Any] = {
+        "config": asdict(cfg),
+        "targets": TARGETS,
+        "machine": {
+            "cpus": os.cpu_count(),
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "blas_core": blas_cores(),
+            "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE"),
+        },
+        "command": " ".join([Path(sys.executable).name, *sys.argv]),
+    }
+    with tempfile.TemporaryDirectory(prefix="bench_sfa_") as tmp:
+        data_dir = Path(tmp)
+        t0 = time.perf_counter()
+        poses = smooth_path(cfg.frames + cfg.test_frames, cfg.seed)
+        # test views: every other pose of a second path, a held-out stretch of the same world
+        test_poses = smooth_path(cfg.test_frames, cfg.seed + 100)
+        if cfg.rendered:
+            views = rendered_panoramas(
+                "sfa_gym/OmniRover-v0", np.r_[poses[: cfg.frames], test_poses], progress
+            )
+        else:
+            views = synthetic_panoramas(
+                np.r_[poses[: cfg.frames], test_poses], 40, 350, cfg.seed, progress=progress
+            )
+        np.save(data_dir / "train.npy", views[: cfg.frames])
+        np.save(data_dir / "test.npy", views[cfg.frames :])
+        results["data_seconds"] = time.perf_counter() - t0
+        del views
+        results["ours"] = _run_child("ours", data_dir, cfg)
+        if not cfg.skip_mdp:
+            results["mdp"] = _run_child("mdp", data_dir, cfg)
+            results["agreement"] = feature_agreement(
+                np.load(data_dir / "features_ours.npy"), np.load(data_dir / "features_mdp.npy")
+            )
+            results["agreement"]["per_layer"] = layer_agreement(
+                data_dir / "layers_ours.npz", data_dir / "layers_mdp.npz"
+            )
+        if not cfg.skip_paper:
+            loc_poses = smooth_path(cfg.locations, cfg.seed + 200)
+            if cfg.rendered:
+                pan = rendered_panoramas("sfa_gym/OmniRoverOutdoorCam-v0", loc_poses, progress)
+            else:
+                pan = synthetic_panoramas(loc_poses, 60, 600, cfg.seed + 200, progress=progress)
+            np.save(data_dir / "paper_panoramas.npy", pan)
+            del pan
+            results["paper"] = _run_child("paper", data_dir, cfg)
+    results["checks"] = _checks(results)
+    return results
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    d = BenchConfig()
+    parser.add_argument("--frames", type=int, default=d.frames, help="training views 40x350")
+    parser.add_argument("--test-frames", type=int, default=d.test_frames, help="held-out views")
+    parser.add_argument("--locations", type=int, default=d.locations, help="60x600 panoramas")
+    parser.add_argument("--rotation-step", type=int, default=d.rotation_step, help="columns")
+    parser.add_argument("--seed", type=int, default=d.seed)
+    parser.add_argument("--rendered", action="store_true", help="render views with the env")
+    parser.add_argument("--mdp-batch", type=int, default=d.mdp_batch, help="MDP chunk (frames)")
+    parser.add_argument(
+        "--mdp-rank-method",
+        default=d.mdp_rank_method,
+        choices=["relative", "none", "auto", "pca", "reg", "svd", "ldl"],
+        help="MDP's treatment of singular covariances (see BenchConfig)",
+    )
+    parser.add_argument("--skip-mdp", action="store_true", help="no MDP run (no ratios)")
+    parser.add_argument("--skip-paper", action="store_true", help="no paper-scale run")
+    parser.add_argument("--json", default=d.json_path, help="output JSON path")
+    parser.add_argument("--no-progress", action="store_true")
+    parser.add_argument("--_child", help=argparse.SUPPRESS)
+    parser.add_argument("--_data", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args._child:
+        print(
+            json.dumps(
+                _child(
+                    args._child,
+                    Path(args._data),
+                    args.mdp_batch,
+                    args.mdp_rank_method,
+                    args.rotation_step,
+                )
+            )
+        )
+        return 0
+    for name in ("frames", "test_frames", "locations", "mdp_batch"):
+        if getattr(args, name) < 2:
+            parser.error(
+                f"--{name.replace('_', '-')} must be at least 2, got {getattr(args, name)}"
+            )
+    cfg = BenchConfig(
+        frames=args.frames,
+        test_frames=args.test_frames,
+        locations=args.locations,
+        rotation_step=args.rotation_step,
+        seed=args.seed,
+        rendered=args.rendered,
+        mdp_batch=args.mdp_batch,
+        mdp_rank_method=args.mdp_rank_method,
+        skip_mdp=args.skip_mdp,
+        skip_paper=args.skip_paper,
+        json_path=args.json,
+    )
+    results = run(cfg, progress=not args.no_progress)
+    print(_table(results))
+    print("targets met:", results["checks"])
+    print("BLAS kernel:", results["machine"]["blas_core"])
+    path = Path(cfg.json_path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(results, indent=2) + "\n")
+    print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
