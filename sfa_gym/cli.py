@@ -82,8 +82,7 @@ def cmd_record(args: argparse.Namespace) -> int:
 
 
 def cmd_localize(args: argparse.Namespace) -> int:
-    from sfa_gym.experiments import GridExperiment, format_table, run_grid_experiment
-    from sfa_gym.localization.methods import list_method_files, load_method_file
+    from sfa_gym.experiments import GridExperiment, run_grid_experiment
 
     config = GridExperiment(
         env_id=args.env,
@@ -100,18 +99,52 @@ def cmd_localize(args: argparse.Namespace) -> int:
         seed=args.seed,
     )
     config.validate()
-    methods = []
+    results = run_grid_experiment(config, args.out, _baselines(args), progress=not args.quiet)
+    return _report(results, args.out)
+
+
+def cmd_localize_run(args: argparse.Namespace) -> int:
+    from sfa_gym.experiments import TrajectoryExperiment, run_trajectory_experiment
+
+    config = TrajectoryExperiment(
+        env_id=args.env,
+        world_seed=args.world_seed,
+        spacing=args.spacing,
+        spin=args.spin,
+        exclude=None if args.no_exclude else tuple(args.exclude),
+        frame_every=args.frame_every,
+        eval_rotations=args.eval_rotations,
+        network=args.network,
+        node_dim=args.node_dim,
+        n_outputs=args.n_outputs,
+        seed=args.seed,
+    )
+    config.validate()
+    results = run_trajectory_experiment(config, args.out, _baselines(args), progress=not args.quiet)
+    return _report(results, args.out)
+
+
+def _baselines(args: argparse.Namespace) -> list[tuple[Any, tuple[str, str]]]:
+    """The feature methods of the baselines folder, each with the linear regression and the
+    regression it is paired with."""
+    from sfa_gym.localization.methods import list_method_files, load_method_file
+
     folder = None if args.no_baselines else _baselines_folder(args.baselines)
+    methods = []
     if folder is not None:
         for path in list_method_files(folder):
             method = load_method_file(path)()
-            paired = getattr(method, "regressor", "linear")
-            methods.append((method, ("linear", paired)))
-    results = run_grid_experiment(config, args.out, methods, progress=not args.quiet)
+            methods.append((method, ("linear", getattr(method, "regressor", "linear"))))
+    return methods
+
+
+def _report(results: dict[str, Any], out: str) -> int:
+    from sfa_gym.experiments import format_table
+
     table = format_table(results)
-    Path(args.out, "results.txt").write_text(table + "\n")
+    Path(out, "results.txt").write_text(table + "\n")
     print(table)
-    print(f"results in {Path(args.out) / 'results.json'}; figures in {args.out}")
+    print(f"results in {Path(out) / 'results.json'}; figures in {out}")
     return 0
 
 
@@ -165,6 +198,39 @@ def build_parser() -> argparse.ArgumentParser:
     loc.add_argument("--no-baselines", action="store_true", help="hierarchical SFA only")
     loc.add_argument("--quiet", action="store_true", help="no progress bars")
     loc.set_defaults(func=cmd_localize)
+
+    from sfa_gym.experiments import TrajectoryExperiment
+
+    traj = TrajectoryExperiment()
+    run = sub.add_parser(
+        "localize-run",
+        help="the paper's outdoor protocol: fit on a training run, test on a separate run "
+        "through a region never visited in training",
+    )
+    run.add_argument("--out", required=True, help="output folder")
+    run.add_argument("--env", default=traj.env_id)
+    run.add_argument("--world-seed", type=int, default=traj.world_seed)
+    run.add_argument("--spacing", type=float, default=traj.spacing, help="training sweep rows (m)")
+    run.add_argument("--spin", type=float, default=traj.spin, help="spin at row ends (rad)")
+    run.add_argument(
+        "--exclude",
+        type=float,
+        nargs=4,
+        default=list(traj.exclude or ()),
+        metavar=("XMIN", "XMAX", "YMIN", "YMAX"),
+        help="region the training run never enters (m)",
+    )
+    run.add_argument("--no-exclude", action="store_true", help="training run visits everything")
+    run.add_argument("--frame-every", type=int, default=traj.frame_every)
+    run.add_argument("--eval-rotations", type=int, default=traj.eval_rotations)
+    run.add_argument("--network", default=traj.network)
+    run.add_argument("--node-dim", type=int, default=traj.node_dim)
+    run.add_argument("--n-outputs", type=int, default=traj.n_outputs)
+    run.add_argument("--seed", type=int, default=traj.seed)
+    run.add_argument("--baselines", default=None, help="folder of feature-method files")
+    run.add_argument("--no-baselines", action="store_true", help="hierarchical SFA only")
+    run.add_argument("--quiet", action="store_true", help="no progress bars")
+    run.set_defaults(func=cmd_localize_run)
     return parser
 
 

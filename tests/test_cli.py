@@ -46,3 +46,16 @@ def test_localize_rejects_an_impossible_grid(tmp_path, capsys):
     argv = ["localize", "--out", str(tmp_path), "--grid", "5", "--n-train", "20", "--n-test", "10"]
     assert main(argv) == 2
     assert "do not fit on a 5 x 5 grid" in capsys.readouterr().err
+
+
+def test_localize_run_protocol_end_to_end(tmp_path):
+    out = tmp_path / "traj"
+    argv = ["localize-run", "--out", str(out), "--spacing", "2.0", "--frame-every", "8"]
+    argv += ["--eval-rotations", "4", "--node-dim", "8", "--no-baselines", "--quiet"]
+    assert main(argv) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert results["protocol"] == "trajectory"
+    sfa = results["methods"]["hierarchical_sfa"]
+    assert len(sfa["eta_phi"]) == 8
+    assert (out / "sfa_model.npz").is_file()
+    assert "hierarchical_sfa" in (out / "results.txt").read_text()
