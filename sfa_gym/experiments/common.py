@@ -3,12 +3,16 @@ every rotated view, fitting a method on a training sequence, result formatting."
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
+import sfa_gym
+from sfa_gym.localization import eta_phi, eta_r
 from sfa_gym.localization.methods import FeatureMethod
 from sfa_gym.rotation import n_rotations, rotated_views
 from sfa_gym.sfa import HierarchicalSFA, presets
@@ -163,3 +167,35 @@ def _format_trajectory_table(results: dict[str, Any]) -> str:
         row("paper (2013)", "linear", results["paper"], None, results["paper"]["eta_phi_max"])
     )
     return "\n".join(lines)
+
+
+def methods_with_sfa(
+    config: Any, methods: Sequence[tuple[FeatureMethod, Sequence[str]]], progress: bool
+) -> tuple[SlowFeatureMethod, list[tuple[FeatureMethod, Sequence[str]]]]:
+    """Hierarchical SFA built from a protocol's ``config`` (evaluated with the paper's linear
+    regression and a quadratic one), followed by the extra ``methods``."""
+    sfa = SlowFeatureMethod(
+        config.network, config.node_dim, config.n_outputs, config.step, progress=progress
+    )
+    return sfa, [(sfa, ("linear", "quadratic")), *methods]
+
+
+def results_header(protocol: str, config: Any, width: int) -> dict[str, Any]:
+    """The common head of a protocol's ``results.json``."""
+    return {
+        "format": "sfa-gym-localization",
+        "version": 1,
+        "sfa_gym_version": sfa_gym.__version__,
+        "protocol": protocol,
+        "config": dataclasses.asdict(config),
+        "n_rotations": n_rotations(width, config.step),
+    }
+
+
+def invariance_entry(train_features: NDArray[np.float64]) -> dict[str, Any]:
+    """eta_r, eta_phi per output and the feature count, from ``(L, K, k)`` training features."""
+    return {
+        "eta_r": np.round(eta_r(train_features), 4).tolist(),
+        "eta_phi": np.round(eta_phi(train_features), 4).tolist(),
+        "n_features": int(train_features.shape[2]),
+    }

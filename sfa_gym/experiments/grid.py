@@ -18,7 +18,6 @@ numbers compare. Estimates are averaged over the rotated views of a location, as
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 from collections.abc import Sequence
@@ -29,15 +28,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-import sfa_gym
 from sfa_gym.experiments.common import (
     NETWORKS,
     SlowFeatureMethod,
     fit_method,
+    invariance_entry,
     mae_dict,
+    methods_with_sfa,
+    results_header,
     rotation_features,
 )
-from sfa_gym.localization import eta_phi, eta_r, fit_predict, mae, make_regressor, random_split_mae
+from sfa_gym.localization import fit_predict, mae, make_regressor, random_split_mae
 from sfa_gym.localization.methods import FeatureMethod
 from sfa_gym.rotation import n_rotations
 from sfa_gym.sfa import HierarchicalSFA
@@ -161,18 +162,9 @@ def run_grid_experiment(
     train_pan, test_pan = panoramas[train], panoramas[test]
     train_xy, test_xy = poses[train, :2], poses[test, :2]
 
-    sfa = SlowFeatureMethod(
-        config.network, config.node_dim, config.n_outputs, config.step, progress=progress
-    )
-    entries: list[tuple[FeatureMethod, Sequence[str]]] = [(sfa, ("linear", "quadratic"))]
-    entries += list(methods)
+    sfa, entries = methods_with_sfa(config, methods, progress)
     results: dict[str, Any] = {
-        "format": "sfa-gym-localization",
-        "version": 1,
-        "sfa_gym_version": sfa_gym.__version__,
-        "protocol": "grid",
-        "config": dataclasses.asdict(config),
-        "n_rotations": n_rotations(panoramas.shape[2], config.step),
+        **results_header("grid", config, panoramas.shape[2]),
         "paper": PAPER_SIM_RESULTS,
         "methods": {},
     }
@@ -183,11 +175,7 @@ def run_grid_experiment(
             fitted, train_pan, config.step, f"{method.name} train", progress
         )
         f_test = rotation_features(fitted, test_pan, config.step, f"{method.name} test", progress)
-        entry: dict[str, Any] = {
-            "eta_r": np.round(eta_r(f_train), 4).tolist(),
-            "eta_phi": np.round(eta_phi(f_train), 4).tolist(),
-            "n_features": int(f_train.shape[2]),
-        }
+        entry = invariance_entry(f_train)
         for name in dict.fromkeys(regressors):
             splits = random_split_mae(
                 f_test, test_xy, name, n_splits=config.n_splits, seed=config.seed

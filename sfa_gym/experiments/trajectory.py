@@ -25,7 +25,6 @@ the paper.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import os
@@ -38,9 +37,15 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-import sfa_gym
-from sfa_gym.experiments.common import NETWORKS, SlowFeatureMethod, fit_method, mae_dict
-from sfa_gym.localization import eta_phi, eta_r, fit_predict, mae, make_regressor
+from sfa_gym.experiments.common import (
+    NETWORKS,
+    fit_method,
+    invariance_entry,
+    mae_dict,
+    methods_with_sfa,
+    results_header,
+)
+from sfa_gym.localization import fit_predict, mae, make_regressor
 from sfa_gym.localization.methods import FeatureMethod
 from sfa_gym.rotation import n_rotations
 
@@ -344,18 +349,9 @@ def run_trajectory_experiment(
     test_inside = in_rectangle(test_xy, config.exclude)
     test_range = test_xy.max(axis=0) - test_xy.min(axis=0)
 
-    sfa = SlowFeatureMethod(
-        config.network, config.node_dim, config.n_outputs, config.step, progress=progress
-    )
-    entries: list[tuple[FeatureMethod, Sequence[str]]] = [(sfa, ("linear", "quadratic"))]
-    entries += list(methods)
+    sfa, entries = methods_with_sfa(config, methods, progress)
     results: dict[str, Any] = {
-        "format": "sfa-gym-localization",
-        "version": 1,
-        "sfa_gym_version": sfa_gym.__version__,
-        "protocol": "trajectory",
-        "config": dataclasses.asdict(config),
-        "n_rotations": n_rotations(width, config.step),
+        **results_header("trajectory", config, width),
         "eval_windows": windows.tolist(),
         "runs": {
             "train": _run_summary(train_run, train_idx, train_inside),
@@ -373,11 +369,7 @@ def run_trajectory_experiment(
         f_test = window_features(
             fitted, test_pan, config.step, windows, f"{method.name} test", progress
         )
-        entry: dict[str, Any] = {
-            "eta_r": np.round(eta_r(f_train), 4).tolist(),
-            "eta_phi": np.round(eta_phi(f_train), 4).tolist(),
-            "n_features": int(f_train.shape[2]),
-        }
+        entry = invariance_entry(f_train)
         for name in dict.fromkeys(regressors):
             estimates = fit_predict(make_regressor(name), f_train, train_xy, f_test)
             entry[name] = {"train_test": mae_dict(mae(estimates, test_xy))}
