@@ -1,29 +1,38 @@
-"""Benchmark: rendering cost of the omnidirectional camera (and, later, env steps per second).
+"""Benchmark: env steps per second and the cost of the omnidirectional camera.
 
-Camera part: in one process, time ``OmniCamera.render`` for several panorama specs on the
-``paper_sim`` world with the rover (or, if the env's world builder is unavailable, a built-in
-arena-like scene of similar complexity), and one ``mujoco.Renderer`` render of the same scene
-with as many output pixels (W x H, with and without the model's MSAA, and at the supersampled
-size). Reports wall and CPU milliseconds per render, renders per second per core (from CPU
-time, which counts llvmpipe's rasteriser threads too) and the panorama / single-render ratio,
-plus a breakdown of one panorama into its stages.
+Measures, in one process (see issue "Benchmark"):
 
-Targets: panorama (350 x 40) <= 1.5 x one W x H render and >= 400 renders/s per core.
+* env steps/s per core at 350x40 and 600x60: ``OmniRoverEnv.step`` (physics for one control
+  period + one panorama), from process CPU time, which counts llvmpipe's rasteriser threads;
+* the panorama's cost as a ratio to one ``mujoco.Renderer`` render of the same number of output
+  pixels (W x H) of the same world from the same poses. The reference is the cheapest single
+  render of that scene: one reused Renderer, no MSAA, the camera's visual flags (no shadows,
+  reflections or post-processing), light and sky sampling. The out-of-the-box Renderer
+  (without MSAA) is shown too;
+* the stages of one panorama; the camera options (views, supersampling) against the default,
+  with a quality figure: the mean absolute difference (grey levels) from an 8-view, 4x
+  supersampled panorama of the same pose.
 
-The machine may be shared: every time is the best of ``--repeats`` batches. For per-core
-numbers without llvmpipe's threads, run with ``LP_NUM_THREADS=0`` (rasterise in the calling
-thread).
+Targets: >= 400 env steps/s per core at 350x40; panorama <= 1.5 x the single render.
+
+The machine may be shared: every figure is the median over ``--repeats`` batches, and the
+figures that are compared (panorama and its references) are timed in interleaved batches, so
+that they see the same load. CPU time counts llvmpipe's worker threads; for figures that do
+not depend on them, pass ``--lp-threads 0`` (rasterise in the calling thread).
 
 Usage (from the repository root)::
 
-    .venv/bin/python eval/bench_env.py            # full table
-    .venv/bin/python eval/bench_env.py --quick    # smoke run
+    .venv/bin/python eval/bench_env.py                  # full tables
+    .venv/bin/python eval/bench_env.py --lp-threads 0   # per-core figures, one thread
+    .venv/bin/python eval/bench_env.py --quick          # smoke run
+    .venv/bin/python eval/bench_env.py --png out/       # also write the panoramas compared
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import statistics
 import sys
 import time
 from collections.abc import Callable
@@ -43,14 +52,22 @@ gl.configure()
 import cv2  # noqa: E402
 import mujoco  # noqa: E402
 
-from sfa_gym.camera import OmniCamera, PanoramaSpec, camera_mjcf  # noqa: E402
+from sfa_gym.camera import (  # noqa: E402
+    OmniCamera,
+    PanoramaSpec,
+    _headlight_to_eye,
+    _sample_nearest,
+)
+from sfa_gym.env import OmniRoverEnv  # noqa: E402
 
-TARGETS = {"ratio_to_single_render_max": 1.5, "renders_per_s_per_core_min": 400.0}
+TARGETS = {"ratio_max": 1.5, "steps_per_s_per_core_min": 400.0}
+# Panorama used as ground truth for the quality figure: 8 views, 4x supersampling.
+REFERENCE_VIEWS, REFERENCE_SUPERSAMPLE = 8, 4
 
 
 @dataclass(frozen=True)
 class Timing:
-    """Best-of-repeats cost of one call: wall and process CPU milliseconds."""
+    """Median cost of one call: wall and process CPU milliseconds."""
 
     wall_ms: float
     cpu_ms: float
@@ -60,327 +77,404 @@ class Timing:
         return 1000.0 / self.cpu_ms if self.cpu_ms > 0 else float("inf")
 
 
-def time_calls(fn: Callable[[], object], n: int = 100, repeats: int = 5) -> Timing:
-    """Best of ``repeats`` batches of ``n`` calls (after one warm-up call)."""
-    fn()
-    wall = cpu = float("inf")
+def time_interleaved(
+    fns: dict[str, Callable[[], object]], n: int = 50, repeats: int = 9
+) -> dict[str, Timing]:
+    """Median per-call cost of each function over ``repeats`` batches of ``n`` calls.
+
+    The batches of the different functions alternate, so that a load change on a shared
+    machine affects them alike (ratios between them stay meaningful).
+    """
+    for fn in fns.values():
+        fn()  # warm-up: GL contexts, shader compilation
+    wall: dict[str, list[float]] = {name: [] for name in fns}
+    cpu: dict[str, list[float]] = {name: [] for name in fns}
     for _ in range(repeats):
-        t0, c0 = time.perf_counter(), time.process_time()
-        for _ in range(n):
-            fn()
-        wall = min(wall, (time.perf_counter() - t0) / n * 1e3)
-        cpu = min(cpu, (time.process_time() - c0) / n * 1e3)
-    return Timing(wall, cpu)
+        for name, fn in fns.items():
+            t0, c0 = time.perf_counter(), time.process_time()
+            for _ in range(n):
+                fn()
+            wall[name].append((time.perf_counter() - t0) / n * 1e3)
+            cpu[name].append((time.process_time() - c0) / n * 1e3)
+    return {
+        name: Timing(statistics.median(wall[name]), statistics.median(cpu[name])) for name in fns
+    }
 
 
 # -- scenes -------------------------------------------------------------------------------------
 
 
-def _fallback_arena_mjcf(spec: PanoramaSpec, seed: int = 0) -> str:
-    """A 7 m walled arena with textured floor and panels, ~40 landmarks, skybox, three lights."""
+def rover_states(env: OmniRoverEnv, n_poses: int = 8, seed: int = 0) -> list[mujoco.MjData]:
+    """Simulation states with the rover resting at ``n_poses`` random poses of the arena."""
     rng = np.random.default_rng(seed)
-    geoms = []
-    for side in range(4):
-        for k in range(4):
-            t = -2.625 + 1.75 * k
-            x, y = [(3.55, t), (-3.55, t), (t, 3.55), (t, -3.55)][side]
-            sx, sy = (0.05, 0.875) if side < 2 else (0.875, 0.05)
-            geoms.append(
-                f'<geom type="box" pos="{x} {y} 0.4" size="{sx} {sy} 0.4" material="panel{k}"/>'
-            )
-    for _ in range(40):
-        a, r = rng.uniform(0, 2 * np.pi), rng.uniform(4.2, 8.0)
-        h, w = rng.uniform(0.5, 3.0), rng.uniform(0.1, 0.8)
-        kind = rng.choice(["box", "cylinder", "ellipsoid"])
-        size = f"{w} {w} {h / 2}" if kind != "cylinder" else f"{w} {h / 2}"
-        rgb = " ".join(f"{v:.2f}" for v in rng.uniform(0.2, 1.0, 3))
-        geoms.append(
-            f'<geom type="{kind}" pos="{r * np.cos(a):.3f} {r * np.sin(a):.3f} {h / 2:.3f}" '
-            f'size="{size}" rgba="{rgb} 1"/>'
-        )
-    panels = "".join(
-        f'<texture name="panel{k}" type="2d" builtin="checker" rgb1="{0.2 * k + 0.1} .5 .4" '
-        f'rgb2=".8 .7 {0.2 * k + 0.1}" width="64" height="64"/>'
-        f'<material name="panel{k}" texture="panel{k}" texrepeat="2 1"/>'
-        for k in range(4)
-    )
-    return f"""<mujoco>
-  <visual><quality shadowsize="0" numslices="16" numstacks="8" numquads="1"/>
-    <headlight ambient=".4 .4 .4" diffuse="0 0 0" specular="0 0 0"/></visual>
-  <asset>
-    <texture name="floor" type="2d" builtin="checker" rgb1=".4 .4 .45" rgb2=".5 .5 .5"
-             width="128" height="128"/>
-    <material name="floor" texture="floor" texrepeat="4 4"/>
-    <texture type="skybox" builtin="gradient" rgb1=".4 .6 .9" rgb2=".9 .9 .95" width="256"
-             height="1536"/>
-    {panels}
-  </asset>
-  <worldbody>
-    <light directional="true" dir="-.5 -.3 -.8" diffuse=".45 .45 .45" castshadow="false"/>
-    <light directional="true" dir=".6 -.4 -.6" diffuse=".35 .35 .35" castshadow="false"/>
-    <light directional="true" dir="0 .8 -.6" diffuse=".3 .3 .3" castshadow="false"/>
-    <geom type="plane" size="40 40 40" material="floor"/>
-    {"".join(geoms)}
-    <body name="mast" mocap="true" pos="0.3 -0.2 1.0">{camera_mjcf(spec)}</body>
-  </worldbody>
-</mujoco>"""
+    xmin, xmax, ymin, ymax = env.arena_bounds
+    states = []
+    for _ in range(n_poses):
+        pose = (rng.uniform(xmin, xmax), rng.uniform(ymin, ymax), rng.uniform(-np.pi, np.pi))
+        env.reset(options={"pose": pose})
+        data = mujoco.MjData(env.model)
+        data.qpos[:] = env.data.qpos
+        mujoco.mj_forward(env.model, data)
+        states.append(data)
+    return states
 
 
-def arena_model(
-    spec: PanoramaSpec, world: str = "paper_sim", world_seed: int = 0
-) -> tuple[mujoco.MjModel, mujoco.MjData, str]:
-    """Model and data of ``world`` with the rover carrying cameras for ``spec``.
+class Cycle:
+    """Calls ``render(state)`` over the states in turn (one call per invocation)."""
 
-    Returns ``(model, data, description)``. Falls back to :func:`_fallback_arena_mjcf` when
-    the env's world builder cannot be imported.
+    def __init__(self, render: Callable[[mujoco.MjData], object], states: list[mujoco.MjData]):
+        self.render, self.states, self.i = render, states, 0
+
+    def __call__(self) -> object:
+        self.i = (self.i + 1) % len(self.states)
+        return self.render(self.states[self.i])
+
+
+def single_renderer(camera: OmniCamera, width: int, height: int, *, tuned: bool):
+    """A ``mujoco.Renderer`` of ``width`` x ``height`` looking along the rover's heading.
+
+    ``tuned``: the camera's visual flags, light and sky sampling (the cheapest render of the
+    same scene); otherwise the Renderer as it comes, without MSAA. Returns ``(render, close)``.
     """
+    model = camera.model
+    saved = (model.vis.global_.offwidth, model.vis.global_.offheight, model.vis.quality.offsamples)
+    model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
+    model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+    model.vis.quality.offsamples = 0
     try:
-        from sfa_gym.rover import RoverSpec, rover_mjcf
-        from sfa_gym.worlds import build_world, load_world_spec
+        renderer = mujoco.Renderer(model, height, width)
+    finally:
+        vis = model.vis
+        vis.global_.offwidth, vis.global_.offheight, vis.quality.offsamples = saved
+    option = mujoco.MjvOption()
+    if tuned:
+        option.sitegroup[:] = 0
+        flags = renderer.scene.flags
+        for flag in ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_POST_PROCESSING"):
+            flags[getattr(mujoco.mjtRndFlag, flag)] = 0
+        renderer._gl_context.make_current()
+        _sample_nearest(renderer._mjr_context, camera._smooth_skies)
+    cam_name = f"{camera.prefix}0"
 
-        mjcf = build_world(
-            load_world_spec(world), world_seed, robot=rover_mjcf(RoverSpec(), spec)
-        ).mjcf
-        name = f"{world} (seed {world_seed}) + rover"
-    except ImportError:
-        mjcf = _fallback_arena_mjcf(spec, world_seed)
-        name = "built-in arena-like scene"
-    model = mujoco.MjModel.from_xml_string(mjcf)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    return model, data, name
+    def render(data: mujoco.MjData) -> np.ndarray:
+        renderer.update_scene(data, camera=cam_name, scene_option=option)
+        if tuned:
+            _headlight_to_eye(renderer.scene)
+        return renderer.render()
+
+    return render, renderer.close
 
 
 # -- camera benchmark ---------------------------------------------------------------------------
 
 
-def bench_panorama(spec: PanoramaSpec, n: int = 100, repeats: int = 5) -> Timing:
-    """Cost of one ``OmniCamera.render`` for ``spec`` (GL context creation excluded)."""
-    model, data, _ = arena_model(spec)
-    camera = OmniCamera(model, spec)
-    try:
-        return time_calls(lambda: camera.render(data), n, repeats)
-    finally:
-        camera.close()
-
-
-def bench_single_render(
-    spec: PanoramaSpec,
-    width: int,
-    height: int,
-    msaa: bool,
-    n: int = 100,
-    repeats: int = 5,
-) -> Timing:
-    """Cost of ``update_scene`` + ``render`` of one ``mujoco.Renderer`` of width x height,
-    looking along the rover's heading, with the model's MSAA samples or without MSAA."""
-    model, data, _ = arena_model(spec)
-    model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
-    model.vis.global_.offheight = max(model.vis.global_.offheight, height)
-    if not msaa:
-        model.vis.quality.offsamples = 0
-    renderer = mujoco.Renderer(model, height, width)
-    camera = "omni0"
-
-    def render() -> None:
-        renderer.update_scene(data, camera=camera)
-        renderer.render()
-
-    try:
-        return time_calls(render, n, repeats)
-    finally:
-        renderer.close()
-
-
-def panorama_breakdown(spec: PanoramaSpec, n: int = 100, repeats: int = 5) -> dict[str, Timing]:
-    """Cost of the stages of one panorama: scene update, per-view rendering + readPixels
-    (llvmpipe rasterises lazily, at the read), remap, box filter.
-
-    Calls the camera's private stages directly; keep in step with ``sfa_gym/camera.py``.
-    """
-    model, data, _ = arena_model(spec)
-    cam = OmniCamera(model, spec)
-    cam.render(data)
-    scn, con = cam._scene, cam._con
-    cat = mujoco.mjtCatBit.mjCAT_ALL
-
-    def update() -> None:
-        mujoco.mjv_updateScene(model, data, cam._option, cam._perturb, cam._cameras[0], cat, scn)
-        cam._headlight_at_eye()
-
-    def views() -> None:
-        update()
-        cam._render_views(data)
-        mujoco.mjr_readPixels(cam._buffer, None, cam._full_rect, con)
-
-    def remap() -> None:
-        cv2.remap(cam._buffer, cam._map_x, cam._map_y, cv2.INTER_LINEAR, dst=cam._fine)
-
-    size = (spec.width, spec.height)
-    out = {
-        "scene update": time_calls(update, n, repeats),
-        "views + readPixels": time_calls(views, n, repeats),
-        "remap": time_calls(remap, n, repeats),
-        "box filter": time_calls(
-            lambda: cv2.resize(cam._fine, size, interpolation=cv2.INTER_AREA), n, repeats
-        ),
-        "total": time_calls(lambda: cam.render(data), n, repeats),
-    }
-    cam.close()
-    return out
-
-
-def _spec_label(spec: PanoramaSpec) -> str:
+def _label(spec: PanoramaSpec) -> str:
     return f"{spec.width}x{spec.height} N={spec.n_views} ss={spec.supersample}"
 
 
-def camera_table(
-    specs: list[PanoramaSpec], n: int = 100, repeats: int = 5
-) -> tuple[list[dict[str, object]], dict[str, bool]]:
-    """Rows (one per spec and per single-render reference) and the target checks."""
-    rows: list[dict[str, object]] = []
-    checks: dict[str, bool] = {}
-    references: dict[tuple[int, int], dict[str, Timing]] = {}
-    for spec in specs:
-        key = (spec.width, spec.height)
-        if key not in references:
-            ss_spec = replace(spec, supersample=2)
-            references[key] = {
-                f"Renderer {spec.width}x{spec.height}": bench_single_render(
-                    spec, spec.width, spec.height, msaa=False, n=n, repeats=repeats
-                ),
-                f"Renderer {spec.width}x{spec.height} MSAA": bench_single_render(
-                    spec, spec.width, spec.height, msaa=True, n=n, repeats=repeats
-                ),
-                f"Renderer {2 * spec.width}x{2 * spec.height}": bench_single_render(
-                    ss_spec, 2 * spec.width, 2 * spec.height, msaa=False, n=n, repeats=repeats
-                ),
-            }
-            for name, t in references[key].items():
-                rows.append({"what": name, "timing": t, "ratio": None, "ratio_msaa": None})
-        refs = references[key]
-        plain = refs[f"Renderer {spec.width}x{spec.height}"]
-        msaa = refs[f"Renderer {spec.width}x{spec.height} MSAA"]
-        t = bench_panorama(spec, n=n, repeats=repeats)
-        ratio, ratio_msaa = t.cpu_ms / plain.cpu_ms, t.cpu_ms / msaa.cpu_ms
-        rows.append(
-            {
-                "what": f"panorama {_spec_label(spec)}",
-                "timing": t,
-                "ratio": ratio,
-                "ratio_msaa": ratio_msaa,
-            }
-        )
-        if spec == PanoramaSpec.paper_sim():
-            checks["ratio <= 1.5 (vs W x H render, no MSAA)"] = (
-                ratio <= TARGETS["ratio_to_single_render_max"]
-            )
-            checks["ratio <= 1.5 (vs W x H render with MSAA)"] = (
-                ratio_msaa <= TARGETS["ratio_to_single_render_max"]
-            )
-            checks[">= 400 renders/s per core (350x40)"] = (
-                t.per_s_per_core >= TARGETS["renders_per_s_per_core_min"]
-            )
-    return rows, checks
+@dataclass
+class CameraRow:
+    what: str
+    timing: Timing
+    ratio: float | None = None  # CPU time / the tuned single render
+    ratio_plain: float | None = None  # CPU time / the out-of-the-box single render
+    quality: float | None = None  # mean |panorama - reference| in grey levels
 
 
-def format_camera_table(rows: list[dict[str, object]]) -> str:
+def bench_size(
+    specs: list[PanoramaSpec],
+    n: int,
+    repeats: int,
+    n_poses: int = 8,
+    png_dir: Path | None = None,
+    with_before: bool = True,
+) -> list[CameraRow]:
+    """Panoramas of several specs of one size and their single-render references, interleaved.
+
+    ``with_before``: also time the default spec with the sky sampled as MuJoCo does
+    (trilinear), i.e. the camera before the smooth-sky shortcut.
+    """
+    width, height = specs[0].width, specs[0].height
+    reference_spec = replace(specs[0], n_views=REFERENCE_VIEWS, supersample=REFERENCE_SUPERSAMPLE)
+    envs, cameras, states, closers = [], {}, {}, []
+    fns: dict[str, Callable[[], object]] = {}
+    try:
+        for spec in [*specs, reference_spec]:
+            env = OmniRoverEnv(panorama=spec)
+            envs.append(env)
+            camera = OmniCamera(env.model, spec)
+            closers.append(camera.close)
+            cameras[spec] = camera
+            states[spec] = rover_states(env, n_poses)
+        default = specs[0]
+        for tuned, name in ((True, "Renderer WxH"), (False, "Renderer WxH out of the box")):
+            render, close = single_renderer(cameras[default], width, height, tuned=tuned)
+            closers.append(close)
+            fns[name] = Cycle(render, states[default])
+        before = OmniCamera(cameras[default].model, default)
+        before._smooth_skies = []  # the sky sampled as MuJoCo does (trilinear)
+        closers.append(before.close)
+        if with_before:
+            fns["before"] = Cycle(before.render, states[default])
+        for spec in specs:
+            fns[_label(spec)] = Cycle(cameras[spec].render, states[spec])
+        timings = time_interleaved(fns, n, repeats)
+
+        truth = [
+            cameras[reference_spec].render(s).astype(np.float64) for s in states[reference_spec]
+        ]
+        tuned, plain = timings["Renderer WxH"], timings["Renderer WxH out of the box"]
+        rows = [
+            CameraRow(f"Renderer {width}x{height} (camera's flags + sky)", tuned),
+            CameraRow(f"Renderer {width}x{height} out of the box, no MSAA", plain),
+        ]
+        panoramas: dict[str, list[np.ndarray]] = {}
+        if with_before:
+            before_panos = [before.render(s) for s in states[default]]
+            panoramas["before"] = before_panos
+            rows.append(
+                _row(
+                    f"panorama {_label(default)} trilinear sky",
+                    timings["before"],
+                    tuned,
+                    plain,
+                    before_panos,
+                    truth,
+                )
+            )
+        for spec in specs:
+            panos = [cameras[spec].render(s) for s in states[spec]]
+            panoramas[_label(spec)] = panos
+            rows.append(
+                _row(f"panorama {_label(spec)}", timings[_label(spec)], tuned, plain, panos, truth)
+            )
+        if png_dir is not None:
+            panoramas[f"reference N={REFERENCE_VIEWS} ss={REFERENCE_SUPERSAMPLE}"] = [
+                t.astype(np.uint8) for t in truth
+            ]
+            _write_pngs(png_dir, f"{width}x{height}", panoramas)
+        return rows
+    finally:
+        for close in closers:
+            close()
+        for env in envs:
+            env.close()
+
+
+def _row(
+    what: str,
+    timing: Timing,
+    tuned: Timing,
+    plain: Timing,
+    panos: list[np.ndarray],
+    truth: list[np.ndarray],
+) -> CameraRow:
+    quality = float(np.mean([np.abs(p - t).mean() for p, t in zip(panos, truth, strict=True)]))
+    return CameraRow(
+        what, timing, timing.cpu_ms / tuned.cpu_ms, timing.cpu_ms / plain.cpu_ms, quality
+    )
+
+
+def _write_pngs(directory: Path, size: str, panoramas: dict[str, list[np.ndarray]]) -> None:
+    """One PNG per option: its panoramas of the first three poses, stacked, scaled 3x."""
+    directory.mkdir(parents=True, exist_ok=True)
+    for name, panos in panoramas.items():
+        strip = np.concatenate([np.asarray(p, dtype=np.uint8) for p in panos[:3]], axis=0)
+        big = cv2.resize(strip[..., ::-1], None, fx=3, fy=3, interpolation=cv2.INTER_NEAREST)
+        safe = "".join(ch if ch.isalnum() else "_" for ch in name)
+        cv2.imwrite(str(directory / f"pano_{size}_{safe}.png"), big)
+
+
+def format_camera_rows(rows: list[CameraRow]) -> str:
     lines = [
-        f"{'render':42s} {'wall ms':>8s} {'cpu ms':>8s} {'/s/core':>8s} {'x single':>9s} "
-        f"{'x MSAA':>7s}",
+        f"{'render (median of batches)':50s} {'wall ms':>8s} {'cpu ms':>7s} {'/s/core':>8s} "
+        f"{'x single':>8s} {'x plain':>8s} {'|d| ref':>8s}"
     ]
     for row in rows:
-        t = row["timing"]
-        assert isinstance(t, Timing)
-        ratio = "" if row["ratio"] is None else f"{row['ratio']:.2f}"
-        ratio_msaa = "" if row["ratio_msaa"] is None else f"{row['ratio_msaa']:.2f}"
+        t = row.timing
+        cells = ["" if v is None else f"{v:.2f}" for v in (row.ratio, row.ratio_plain, row.quality)]
         lines.append(
-            f"{row['what']:42s} {t.wall_ms:8.2f} {t.cpu_ms:8.2f} {t.per_s_per_core:8.0f} "
-            f"{ratio:>9s} {ratio_msaa:>7s}"
+            f"{row.what:50s} {t.wall_ms:8.2f} {t.cpu_ms:7.2f} {t.per_s_per_core:8.0f} "
+            f"{cells[0]:>8s} {cells[1]:>8s} {cells[2]:>8s}"
         )
     return "\n".join(lines)
 
 
-def format_breakdown(spec: PanoramaSpec, stages: dict[str, Timing]) -> str:
-    lines = [f"stages of one panorama {_spec_label(spec)} (cpu ms):"]
+def panorama_stages(spec: PanoramaSpec, n: int, repeats: int) -> dict[str, Timing]:
+    """Cost of the stages of one panorama (calls the camera's private stages; keep in step
+    with ``sfa_gym/camera.py``).
+
+    llvmpipe rasterises lazily, so the per-view work is split by rendering the same views
+    into 8x8 viewports ("draw calls": MuJoCo's and the driver's work per geom, with nothing to
+    fill) and at full size ("draw calls + pixels"); both end with ``glFinish``.
+    """
+    env = OmniRoverEnv(panorama=spec)
+    cam = OmniCamera(env.model, spec)
+    try:
+        states = rover_states(env, 8)
+        cam.render(states[0])
+        scn, con = cam._scene, cam._con
+        cat = mujoco.mjtCatBit.mjCAT_ALL
+        pick = Cycle(lambda s: s, states)
+        full_rects = cam._rects
+        tiny_rects = [mujoco.MjrRect(8 * i, 0, 8, 8) for i in range(len(full_rects))]
+
+        def update() -> mujoco.MjData:
+            data = pick()
+            mujoco.mjv_updateScene(
+                cam.model, data, cam._option, cam._perturb, cam._cameras[0], cat, scn
+            )
+            cam._headlight_at_eye()
+            return data
+
+        def views(rects: list[mujoco.MjrRect]) -> Callable[[], None]:
+            def run() -> None:
+                cam._rects = rects
+                try:
+                    cam._render_views(update())
+                    mujoco.mjr_finish()
+                finally:
+                    cam._rects = full_rects
+
+            return run
+
+        t = time_interleaved(
+            {
+                "scene update": update,
+                "views: draw calls": views(tiny_rects),
+                "views: draw calls + pixels": views(full_rects),
+                "readPixels": lambda: mujoco.mjr_readPixels(cam._buffer, None, cam._full_rect, con),
+                "remap": lambda: cv2.remap(
+                    cam._buffer, cam._map_x, cam._map_y, cv2.INTER_LINEAR, dst=cam._fine
+                ),
+                "box filter": lambda: cv2.resize(
+                    cam._fine, (spec.width, spec.height), interpolation=cv2.INTER_AREA
+                ),
+                "render() in all": Cycle(cam.render, states),
+            },
+            n,
+            repeats,
+        )
+    finally:
+        cam.close()
+        env.close()
+    return t
+
+
+def format_stages(spec: PanoramaSpec, stages: dict[str, Timing]) -> str:
+    lines = [f"stages of one panorama {_label(spec)} (cpu ms; views include the scene update):"]
     lines += [f"  {name:22s} {t.cpu_ms:7.3f}" for name, t in stages.items()]
     return "\n".join(lines)
-
-
-def camera_specs(quick: bool = False) -> list[PanoramaSpec]:
-    sim, outdoor = PanoramaSpec.paper_sim(), PanoramaSpec.paper_outdoor()
-    if quick:
-        return [sim]
-    return [
-        sim,
-        replace(sim, supersample=1),
-        replace(sim, n_views=6),
-        replace(sim, n_views=6, supersample=1),
-        outdoor,
-        replace(outdoor, supersample=1),
-        replace(outdoor, n_views=6),
-    ]
 
 
 # -- env benchmark ------------------------------------------------------------------------------
 
 
-def bench_env_steps(panorama: str, n: int = 100, repeats: int = 5) -> tuple[Timing, Timing]:
-    """Cost of one ``OmniRoverEnv.step`` (physics for one control period + one panorama) and
-    of its physics alone, for a panorama preset ("paper_sim" or "paper_outdoor").
+def bench_env_steps(
+    specs: dict[str, PanoramaSpec], n: int, repeats: int
+) -> dict[str, tuple[Timing, Timing]]:
+    """Cost of one ``OmniRoverEnv.step`` and of its physics alone, per panorama spec.
 
     The rover drives a slow circle so that it keeps moving and stays inside the arena.
     """
-    from sfa_gym.env import OmniRoverEnv
-
-    env = OmniRoverEnv(panorama=panorama)
-    env.reset(seed=0, options={"pose": (0.0, -1.0, 0.0)})
+    envs = {name: OmniRoverEnv(panorama=spec) for name, spec in specs.items()}
     action = np.array([0.3, 0.3], dtype=np.float32)
+    fns: dict[str, Callable[[], object]] = {}
     try:
-        step = time_calls(lambda: env.step(action), n, repeats)
-        physics = time_calls(
-            lambda: mujoco.mj_step(env.model, env.data, nstep=env.frame_skip), n, repeats
-        )
+        for name, env in envs.items():
+            env.reset(seed=0, options={"pose": (0.0, -1.0, 0.0)})
+            fns[name] = lambda env=env: env.step(action)
+        some = next(iter(envs.values()))
+        fns["physics"] = lambda: mujoco.mj_step(some.model, some.data, nstep=some.frame_skip)
+        t = time_interleaved(fns, n, repeats)
     finally:
-        env.close()
-    return step, physics
+        for env in envs.values():
+            env.close()
+    return {name: (t[name], t["physics"]) for name in specs}
 
 
-def format_env_table(n: int = 100, repeats: int = 5) -> str:
+def format_env_table(results: dict[str, tuple[Timing, Timing]]) -> str:
     lines = [
-        f"{'env step (control period 0.1 s)':42s} {'wall ms':>8s} {'cpu ms':>8s} {'/s/core':>8s}"
+        f"{'env step (control period 0.1 s)':42s} {'wall ms':>8s} {'cpu ms':>7s} "
+        f"{'steps/s/core':>12s} {'physics ms':>10s}"
     ]
-    for preset in ("paper_sim", "paper_outdoor"):
-        spec = getattr(PanoramaSpec, preset)()
-        step, physics = bench_env_steps(preset, n=n, repeats=repeats)
-        for what, t in (
-            (f"step {spec.width}x{spec.height}", step),
-            ("  of which physics", physics),
-        ):
-            lines.append(f"{what:42s} {t.wall_ms:8.2f} {t.cpu_ms:8.2f} {t.per_s_per_core:8.0f}")
+    for name, (step, physics) in results.items():
+        lines.append(
+            f"{name:42s} {step.wall_ms:8.2f} {step.cpu_ms:7.2f} {step.per_s_per_core:12.0f} "
+            f"{physics.cpu_ms:10.2f}"
+        )
     return "\n".join(lines)
+
+
+def camera_specs(width: int, height: int, quick: bool = False) -> list[PanoramaSpec]:
+    """The default (first) and the options compared with it."""
+    default = PanoramaSpec(width=width, height=height)
+    if quick:
+        return [default, replace(default, supersample=1)]
+    return [
+        default,
+        replace(default, n_views=6),
+        replace(default, supersample=1),
+        replace(default, n_views=6, supersample=1),
+        replace(default, n_views=3, supersample=1),
+        replace(default, n_views=8, supersample=1),
+    ]
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="one spec, few calls (smoke run)")
-    parser.add_argument("--n", type=int, default=100, help="calls per timed batch")
-    parser.add_argument("--repeats", type=int, default=5, help="batches; the best one counts")
-    args = parser.parse_args(argv)
-    n, repeats = (10, 2) if args.quick else (args.n, args.repeats)
-    spec = PanoramaSpec.paper_sim()
-    _, _, scene = arena_model(spec)
-    print(
-        f"scene: {scene}; GL: {os.environ.get('MUJOCO_GL')}; "
-        f"LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS', 'default')}; "
-        f"best of {repeats} x {n} calls"
+    parser.add_argument("--quick", action="store_true", help="one size, few calls (smoke run)")
+    parser.add_argument("--n", type=int, default=40, help="calls per timed batch")
+    parser.add_argument("--repeats", type=int, default=9, help="batches; the median counts")
+    parser.add_argument(
+        "--lp-threads",
+        type=int,
+        default=None,
+        help="set LP_NUM_THREADS (llvmpipe rasteriser threads; 0 = the calling thread)",
     )
-    rows, checks = camera_table(camera_specs(args.quick), n=n, repeats=repeats)
-    print(format_camera_table(rows))
-    print(format_breakdown(spec, panorama_breakdown(spec, n=n, repeats=repeats)))
+    parser.add_argument("--png", type=Path, default=None, help="write the panoramas here")
+    args = parser.parse_args(argv)
+    if args.lp_threads is not None:
+        # Read by Mesa when the first GL context is made, which happens below.
+        os.environ["LP_NUM_THREADS"] = str(args.lp_threads)
+    n, repeats = (5, 3) if args.quick else (args.n, args.repeats)
+    print(
+        f"GL: {os.environ.get('MUJOCO_GL')}; "
+        f"LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS', 'default')}; "
+        f"medians of {repeats} interleaved batches of {n} calls; "
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cpus"
+    )
+    sizes = [(350, 40)] if args.quick else [(350, 40), (600, 60)]
+    checks: dict[str, bool] = {}
+    for width, height in sizes:
+        specs = camera_specs(width, height, args.quick)
+        rows = bench_size(specs, n, repeats, png_dir=args.png)
+        print(
+            f"\n-- {width}x{height}: |d| ref = mean |panorama - N={REFERENCE_VIEWS} "
+            f"ss={REFERENCE_SUPERSAMPLE} panorama| (grey levels) --"
+        )
+        print(format_camera_rows(rows))
+        if (width, height) == (350, 40):
+            default = next(r for r in rows if r.what == f"panorama {_label(specs[0])}")
+            checks["panorama <= 1.5 x single render (350x40)"] = (
+                default.ratio is not None and default.ratio <= TARGETS["ratio_max"]
+            )
+    spec = PanoramaSpec.paper_sim()
+    print()
+    print(format_stages(spec, panorama_stages(spec, n, repeats)))
+    env_specs = {}
+    for width, height in sizes:
+        for s in camera_specs(width, height, args.quick)[:4]:
+            env_specs[f"step {_label(s)}"] = s
+    results = bench_env_steps(env_specs, n, repeats)
+    print()
+    print(format_env_table(results))
+    step = results[f"step {_label(spec)}"][0]
+    checks[">= 400 env steps/s per core (350x40)"] = (
+        step.per_s_per_core >= TARGETS["steps_per_s_per_core_min"]
+    )
     for name, ok in checks.items():
         print(f"target {name}: {'met' if ok else 'NOT met'}")
-    print(format_env_table(n=n, repeats=repeats))
     return 0
 
 

@@ -18,6 +18,13 @@ rasteriser this is cheaper than MSAA.
 What the views see: the model's geoms of groups 0-2 (MuJoCo's default), no sites, no shadows or
 reflections. A headlight is moved to the eye and made to shine in all directions, so that every
 view lights a surface alike (a headlight along each view's axis would leave seams).
+
+Cost (llvmpipe, CPU only): rasterising the views' pixels dominates, then MuJoCo's and the
+driver's work per drawn geom; readback and resampling are a few per cent. Each view draws only
+the geoms whose bounding sphere meets its frustum, and a skybox as smooth as MuJoCo's builtin
+gradient is sampled from its nearest texel instead of trilinearly (the sky's cube-map lookups
+were a third of the cost; the pixels stay within one grey level). ``eval/bench_env.py``
+measures it all.
 """
 
 from __future__ import annotations
@@ -50,6 +57,10 @@ _SIDE_MARGIN_PX = 1.5
 _MAX_VFOV_DEG = 150.0
 _MAX_VIEWS = 64
 _MAX_SUPERSAMPLE = 8
+# A skybox whose neighbouring texels differ by at most this many grey levels (a smooth gradient,
+# like MuJoCo's builtin "gradient" sky at 256 texels a face) is sampled without filtering; see
+# _smooth_skyboxes.
+_SMOOTH_SKY_STEP = 1
 
 
 def _check_int(name: str, value: object, low: int, high: int) -> None:
@@ -264,6 +275,67 @@ def _new_gl_context(width: int, height: int) -> Any:
     return _OWNED_GL_CONTEXT(width, height)
 
 
+def _smooth_skyboxes(model: mujoco.MjModel) -> list[int]:
+    """Ids of the skybox textures smooth enough to be sampled without filtering.
+
+    MuJoCo samples every texture trilinearly (from mipmaps), and on llvmpipe the sky's
+    cube-map lookups are then about a third of a panorama's cost. Where neighbouring texels
+    differ by at most ``_SMOOTH_SKY_STEP`` grey level, the nearest texel of the full-size
+    texture is within about a grey level of any filtered value (and the mip levels of a smooth
+    gradient equal it), so nearest sampling gives the same pixels to within a grey level at
+    about half the cost of the sky.
+    """
+    ids = []
+    for tex in range(model.ntex):
+        if model.tex_type[tex] != mujoco.mjtTexture.mjTEXTURE_SKYBOX:
+            continue
+        width, height = int(model.tex_width[tex]), int(model.tex_height[tex])
+        channels = int(model.tex_nchannel[tex])
+        if height != 6 * width or width < 2:
+            continue  # not six square faces: leave it alone
+        start = int(model.tex_adr[tex])
+        faces = model.tex_data[start : start + width * height * channels]
+        faces = faces.reshape(6, width, width, channels).astype(np.int16)
+        step = max(int(np.abs(np.diff(faces, axis=axis)).max()) for axis in (1, 2))
+        if step <= _SMOOTH_SKY_STEP:
+            ids.append(tex)
+    return ids
+
+
+def _sample_nearest(con: mujoco.MjrContext, textures: list[int]) -> None:
+    """Make the current context sample the given skybox textures from their nearest texel."""
+    if not textures:
+        return
+    from OpenGL import GL  # PyOpenGL comes with mujoco; its platform is set by now
+
+    for tex in textures:
+        if tex < con.ntexture and con.textureType[tex] == mujoco.mjtTexture.mjTEXTURE_SKYBOX:
+            GL.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, int(con.texture[tex]))
+            for name in (GL.GL_TEXTURE_MIN_FILTER, GL.GL_TEXTURE_MAG_FILTER):
+                GL.glTexParameteri(GL.GL_TEXTURE_CUBE_MAP, name, GL.GL_NEAREST)
+    GL.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, 0)
+
+
+def _headlight_to_eye(scn: mujoco.MjvScene) -> None:
+    """Turn the scene's headlight into a light at the eye that shines in all directions.
+
+    A headlight shines along the axis of whichever view renders, so a wall at the border of
+    two views would be lit differently in each. Shining from the shared eye in all directions
+    (a 180-degree spot: the classic renderer draws nothing for point-type lights) lights every
+    view alike.
+    """
+    eye = 0.5 * (scn.camera[0].pos + scn.camera[1].pos)  # mono = mean of the stereo eyes
+    for j in range(scn.nlight):
+        light = scn.lights[j]
+        if light.headlight:
+            light.headlight = 0
+            light.type = mujoco.mjtLightType.mjLIGHT_SPOT
+            light.cutoff = 180.0
+            light.exponent = 0.0
+            light.pos[:] = eye
+            light.attenuation[:] = (1.0, 0.0, 0.0)
+
+
 def _cam_forward_up(quat: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     mat = np.empty(9)
     mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=np.float64))
@@ -356,6 +428,7 @@ class OmniCamera:
         # Skip, in each view, the geoms outside its frustum: same pixels, less geometry.
         self._cull = True
         self._cull_cache: tuple[int, list[Any], NDArray[np.intp], list[int]] | None = None
+        self._smooth_skies = _smooth_skyboxes(model)
 
     # -- GL resources ---------------------------------------------------------------------------
 
@@ -393,6 +466,12 @@ class OmniCamera:
                 f"{self.spec} needs a {lay.buffer_w}x{lay.buffer_h} offscreen buffer but OpenGL "
                 f"gave {con.offWidth}x{con.offHeight}; use a smaller width/height/supersample"
             )
+        try:
+            _sample_nearest(con, self._smooth_skies)
+        except Exception:
+            # Texture state is an optimisation: without it, MuJoCo's filtering stays (slower,
+            # within a grey level of the same pixels).
+            self._smooth_skies = []
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, con)
         self._gl, self._con, self._owner_pid = gl_context, con, pid
         _LIVE_CAMERAS.add(self)
@@ -434,21 +513,7 @@ class OmniCamera:
     # -- rendering ------------------------------------------------------------------------------
 
     def _headlight_at_eye(self) -> None:
-        # A headlight shines along the axis of whichever view renders, so a wall at the border
-        # of two views would be lit differently in each. Make it shine from the shared eye in
-        # all directions (a 180-degree spot: the classic renderer draws nothing for
-        # point-type lights), which lights every view alike.
-        scn = self._scene
-        eye = 0.5 * (scn.camera[0].pos + scn.camera[1].pos)  # mono = mean of the stereo eyes
-        for j in range(scn.nlight):
-            light = scn.lights[j]
-            if light.headlight:
-                light.headlight = 0
-                light.type = mujoco.mjtLightType.mjLIGHT_SPOT
-                light.cutoff = 180.0
-                light.exponent = 0.0
-                light.pos[:] = eye
-                light.attenuation[:] = (1.0, 0.0, 0.0)
+        _headlight_to_eye(self._scene)
 
     def _cullable(self) -> tuple[list[Any], NDArray[np.intp], list[int]]:
         """The scene's model geoms with a finite bounding sphere: (mjvGeoms, geom ids, types).

@@ -24,6 +24,7 @@ from sfa_gym.camera import (  # noqa: E402
     PanoramaSpec,
     _layout,
     _remap_tables,
+    _smooth_skyboxes,
     _view_fovy_deg,
     camera_mjcf,
 )
@@ -35,7 +36,16 @@ RED_AT = (0.0, 3.0, CAM_HEIGHT + 0.55)  # azimuth +90 deg, above the horizon
 BLUE_AT = (-3.2, 0.0, CAM_HEIGHT - 0.2)  # azimuth 180 deg
 
 
-def scene_xml(spec: PanoramaSpec, n_boxes: int = 20, seed: int = 0) -> str:
+COARSE_SKY = (
+    '<texture type="skybox" builtin="gradient" rgb1=".5 .7 1" rgb2=".9 .9 1" width="64" '
+    'height="384"/>'
+)
+# 256 texels a face: neighbouring texels differ by at most one grey level.
+SMOOTH_SKY = COARSE_SKY.replace('width="64" height="384"', 'width="256" height="1536"')
+SPECKLED_SKY = SMOOTH_SKY.replace("/>", ' mark="random" random="0.02" markrgb="1 1 1"/>')
+
+
+def scene_xml(spec: PanoramaSpec, n_boxes: int = 20, seed: int = 0, sky: str = COARSE_SKY) -> str:
     """Walled room with a textured floor, random grey-ish boxes and two marker boxes."""
     rng = np.random.default_rng(seed)
     boxes = []
@@ -66,8 +76,7 @@ def scene_xml(spec: PanoramaSpec, n_boxes: int = 20, seed: int = 0) -> str:
     <texture name="wall" type="2d" builtin="checker" rgb1=".7 .6 .3" rgb2=".3 .5 .6"
              width="64" height="64"/>
     <material name="wall" texture="wall" texrepeat="6 2"/>
-    <texture type="skybox" builtin="gradient" rgb1=".5 .7 1" rgb2=".9 .9 1" width="64"
-             height="384"/>
+    {sky}
   </asset>
   <worldbody>
     <light directional="true" dir="-0.3 -0.5 -1" castshadow="false"/>
@@ -85,8 +94,10 @@ def scene_xml(spec: PanoramaSpec, n_boxes: int = 20, seed: int = 0) -> str:
 </mujoco>"""
 
 
-def make_scene(spec: PanoramaSpec = SPEC) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    model = mujoco.MjModel.from_xml_string(scene_xml(spec))
+def make_scene(
+    spec: PanoramaSpec = SPEC, sky: str = COARSE_SKY
+) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    model = mujoco.MjModel.from_xml_string(scene_xml(spec, sky=sky))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     return model, data
@@ -361,4 +372,63 @@ def test_context_from_another_process_is_refused_not_reused():
             camera.render(data)
     finally:
         camera._owner_pid = own
+        camera.close()
+
+
+# -- sky sampling -------------------------------------------------------------------------------
+
+
+def _skybox_ids(model: mujoco.MjModel) -> list[int]:
+    return [i for i in range(model.ntex) if model.tex_type[i] == mujoco.mjtTexture.mjTEXTURE_SKYBOX]
+
+
+def _sky_min_filter(camera: OmniCamera) -> int:
+    from OpenGL import GL
+
+    (sky,) = _skybox_ids(camera.model)
+    camera._gl.make_current()
+    GL.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, int(camera._con.texture[sky]))
+    value = int(GL.glGetTexParameteriv(GL.GL_TEXTURE_CUBE_MAP, GL.GL_TEXTURE_MIN_FILTER))
+    GL.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, 0)
+    return value
+
+
+def test_smooth_sky_is_sampled_nearest_to_within_a_grey_level():
+    """A smooth gradient sky skips MuJoCo's trilinear filtering (a third of a panorama's cost
+    on llvmpipe); the panorama stays within one grey level of the filtered one."""
+    from OpenGL import GL
+
+    model, data = make_scene(sky=SMOOTH_SKY)
+    assert _smooth_skyboxes(model) == _skybox_ids(model)
+    fast = OmniCamera(model, SPEC)
+    filtered = OmniCamera(model, SPEC)
+    filtered._smooth_skies = []  # as MuJoCo samples it
+    try:
+        rng = np.random.default_rng(3)
+        diffs = []
+        for _ in range(6):
+            set_pose(model, data, *rng.uniform(-1.5, 1.5, 2), rng.uniform(0, 2 * math.pi))
+            a, b = fast.render(data), filtered.render(data)
+            diffs.append(np.abs(a.astype(np.int64) - b.astype(np.int64)).max())
+        assert _sky_min_filter(fast) == GL.GL_NEAREST
+        assert _sky_min_filter(filtered) == GL.GL_LINEAR_MIPMAP_LINEAR
+        assert max(diffs) <= 1
+    finally:
+        fast.close()
+        filtered.close()
+
+
+@pytest.mark.parametrize("sky", [COARSE_SKY, SPECKLED_SKY])
+def test_rough_skies_keep_mujocos_filtering(sky):
+    """Skies with steps of more than a grey level between texels (a coarse gradient, random
+    marks) keep trilinear filtering: nearest sampling would show their texels."""
+    from OpenGL import GL
+
+    model, data = make_scene(sky=sky)
+    assert _smooth_skyboxes(model) == []
+    camera = OmniCamera(model, SPEC)
+    try:
+        camera.render(data)
+        assert _sky_min_filter(camera) == GL.GL_LINEAR_MIPMAP_LINEAR
+    finally:
         camera.close()
