@@ -77,6 +77,10 @@ class BenchConfig:
             upper layers are strongly rank deficient (e.g. ~40 % of layer 3's inputs), and which
             near-null directions a node keeps changes the features above it: with another rule
             the two networks learn different (equally valid) features.
+        mdp_blas_threads: ``OPENBLAS_NUM_THREADS`` for the MDP child (0: the library default,
+            all cores). Our engine sets BLAS to one thread itself and runs its own threads; on a
+            machine shared with other processes, multi-threaded BLAS is much slower than one
+            thread (see ``sfa_gym.sfa._parallel``), so ``1`` gives MDP its best case there.
         skip_mdp: run our engine only in part 1 (no ratios).
         skip_paper: skip part 2.
         json_path: where to write the results.
@@ -90,6 +94,7 @@ class BenchConfig:
     rendered: bool = False
     mdp_batch: int = 250
     mdp_rank_method: str = "relative"
+    mdp_blas_threads: int = 0
     skip_mdp: bool = False
     skip_paper: bool = False
     json_path: str = str(ROOT / "eval" / "results" / "bench_sfa.json")
@@ -275,8 +280,14 @@ def _child(
         test = np.load(data_dir / "test.npy")
         result["rss_after_data_mb"] = _rss_mb()
         if kind == "ours":
+            from sfa_gym.sfa._parallel import n_workers
+
             model = HierarchicalSFA(presets.paper_sim(), N_OUTPUTS, progress=False)
-            result["settings"] = {"dtype": model.dtype, "memory_mb": model.memory_mb}
+            result["settings"] = {
+                "dtype": model.dtype,
+                "memory_mb": model.memory_mb,
+                "threads": n_workers(model.n_jobs),
+            }
         else:
             from sfa_gym.sfa.mdp_bridge import MDPHierarchicalSFA
 
@@ -294,6 +305,7 @@ def _child(
                 "batch_size": mdp_batch,
                 "rank_deficit_method": model.rank_deficit_method,
                 "rank_tol": model.rank_tol,
+                "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS"),
             }
         t0, c0 = time.perf_counter(), time.process_time()
         model.fit(train)
@@ -329,13 +341,19 @@ def _run_child(kind: str, data_dir: Path, cfg: BenchConfig) -> dict[str, Any]:
         "--rotation-step",
         str(cfg.rotation_step),
     ]
+    env = dict(os.environ)
+    if kind == "mdp" and cfg.mdp_blas_threads:
+        env["OPENBLAS_NUM_THREADS"] = str(cfg.mdp_blas_threads)
     print(f"[{kind}] running in a child process ...", flush=True)
+    load_before = os.getloadavg()[0]
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
     elapsed = time.perf_counter() - t0
     if proc.returncode != 0:
         raise RuntimeError(f"the {kind!r} child failed:\n{proc.stderr[-4000:]}")
     result = json.loads(proc.stdout.strip().splitlines()[-1])
+    # the machine may be shared: the 1-minute load average before and after the child
+    result["load_average"] = [round(load_before, 2), round(os.getloadavg()[0], 2)]
     print(
         f"[{kind}] fit {result['fit_seconds']:.1f} s, "
         f"peak RSS {result['peak_rss_after_fit_mb']:.0f} MB "
@@ -398,6 +416,9 @@ def _table(results: dict[str, Any]) -> str:
         lines.append(f"canonical corr:       {results['agreement']['canonical_corr']}")
         for name, stats in results["agreement"]["per_layer"].items():
             lines.append(f"{name} channels |corr|: min {stats['min']}, median {stats['median']}")
+    loads = {k: results[k]["load_average"] for k in ("ours", "mdp", "paper") if k in results}
+    if loads:
+        lines.append(f"load average (1 min) before/after each run, {os.cpu_count()} CPUs: {loads}")
     paper = results.get("paper")
     if paper:
         lines.append(
@@ -496,6 +517,12 @@ def main(argv: list[str] | None = None) -> int:
         choices=["relative", "none", "auto", "pca", "reg", "svd", "ldl"],
         help="MDP's treatment of singular covariances (see BenchConfig)",
     )
+    parser.add_argument(
+        "--mdp-blas-threads",
+        type=int,
+        default=d.mdp_blas_threads,
+        help="OPENBLAS_NUM_THREADS for the MDP child (0: library default)",
+    )
     parser.add_argument("--skip-mdp", action="store_true", help="no MDP run (no ratios)")
     parser.add_argument("--skip-paper", action="store_true", help="no paper-scale run")
     parser.add_argument("--json", default=d.json_path, help="output JSON path")
@@ -516,6 +543,8 @@ def main(argv: list[str] | None = None) -> int:
             )
         )
         return 0
+    if args.mdp_blas_threads < 0:
+        parser.error(f"--mdp-blas-threads must be >= 0, got {args.mdp_blas_threads}")
     for name in ("frames", "test_frames", "locations", "mdp_batch"):
         if getattr(args, name) < 2:
             parser.error(
@@ -530,6 +559,7 @@ def main(argv: list[str] | None = None) -> int:
         rendered=args.rendered,
         mdp_batch=args.mdp_batch,
         mdp_rank_method=args.mdp_rank_method,
+        mdp_blas_threads=args.mdp_blas_threads,
         skip_mdp=args.skip_mdp,
         skip_paper=args.skip_paper,
         json_path=args.json,

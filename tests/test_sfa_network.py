@@ -165,11 +165,25 @@ def test_individually_learned_nodes(panoramas):
     assert not np.allclose(single.transform(views), shared.transform(views), atol=1e-3)
 
 
-def test_training_is_deterministic(panoramas):
-    a = _net(dtype="float32").fit_rotations(panoramas, step=4)
-    b = _net(dtype="float32").fit_rotations(panoramas, step=4)
-    views = _views(panoramas[:2], 4)
-    np.testing.assert_array_equal(a.transform(views), b.transform(views))
+@pytest.mark.parametrize("method", ["views", "rotations"])
+def test_training_is_deterministic_for_any_number_of_threads(panoramas, method):
+    views = _views(panoramas[:5], 4)
+
+    def fit(n_jobs):
+        net = _net(dtype="float32", batch_size=2, n_jobs=n_jobs)
+        return net.fit(views) if method == "views" else net.fit_rotations(panoramas, step=4)
+
+    models = [fit(1), fit(2), fit(2), fit(3)]
+    test = _views(panoramas[5:7], 4)
+    ref = models[0].transform(test)
+    ref_rot = models[0].transform_rotations(panoramas[5:7], step=4)
+    for m in models[1:]:
+        np.testing.assert_array_equal(m.transform(test), ref)
+        np.testing.assert_array_equal(m.transform_rotations(panoramas[5:7], step=4), ref_rot)
+        for a, b in zip(m.layer_params_, models[0].layer_params_, strict=True):
+            np.testing.assert_array_equal(a.expand.weight, b.expand.weight)
+    models[0].n_jobs = 2
+    np.testing.assert_array_equal(models[0].transform(test), ref)
 
 
 def test_progress_flag(panoramas, capsys):
@@ -206,6 +220,8 @@ def test_misuse_errors(panoramas):
         _net(presets.tiny()[:2]).fit(views)
     with pytest.raises(ValueError, match="n_outputs"):
         _net(n_outputs=9).fit(views)
+    with pytest.raises(ValueError, match="n_jobs"):
+        _net(n_jobs=0).fit(views)
     with pytest.raises(ValueError, match="not a multiple of step"):
         _net().fit_rotations(panoramas, step=3)
     with pytest.raises(ValueError, match="shortcut does not apply"):  # wraps a cropped view
@@ -229,3 +245,17 @@ def test_layer_without_expansion(panoramas, tmp_path):
     fast.save(tmp_path / "m.npz")
     loaded = HierarchicalSFA.load(tmp_path / "m.npz")
     np.testing.assert_array_equal(loaded.transform(views), fast.transform(views))
+
+
+def test_fourth_moment_products_give_the_same_model_as_rank_k_updates(panoramas, monkeypatch):
+    from sfa_gym.sfa import network
+
+    views = _views(panoramas[:6], 4)
+    models = []
+    for fourth in (True, False):
+        monkeypatch.setattr(network, "fourth_moments_pay_off", lambda f=fourth: f)
+        models.append(_net(batch_size=5).fit(views))
+        models.append(_net(batch_size=3).fit_rotations(panoramas, step=4))
+    for a, b in ((models[0], models[2]), (models[1], models[3])):
+        for pa, pb in zip(a.layer_params_, b.layer_params_, strict=True):
+            np.testing.assert_allclose(pa.expand.weight, pb.expand.weight, rtol=1e-7, atol=1e-9)

@@ -35,6 +35,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from sfa_gym.sfa._moments import Moments, MomentStats
+from sfa_gym.sfa._parallel import single_threaded_blas
 
 __all__ = ["SFA", "NotFittedError", "RankDeficiencyWarning", "SFASolution", "solve_sfa"]
 
@@ -93,6 +94,13 @@ def solve_sfa(
             "SFA needs consecutive samples of the same sequence"
         )
     f = stats.cov.shape[0]
+    with single_threaded_blas():  # small dense problems: threads only cost (see _parallel)
+        return _solve(stats, n_components, rank_tol, context, f)
+
+
+def _solve(
+    stats: MomentStats, n_components: int | None, rank_tol: float, context: str, f: int
+) -> SFASolution:
     evals, evecs = scipy.linalg.eigh(stats.cov)
     top = float(evals[-1])
     scale = float(np.max(np.abs(stats.mean))) if f else 0.0
@@ -115,7 +123,7 @@ def solve_sfa(
             f"{rank_tol:g} x the largest (constant or linearly dependent inputs, or fewer "
             f"samples than dimensions){extra}",
             RankDeficiencyWarning,
-            stacklevel=3,
+            stacklevel=4,
         )
     k = min(want, rank)
     whiten = evecs[:, keep] / np.sqrt(evals[keep])

@@ -13,7 +13,14 @@ Training is layer-wise and streamed: for each layer, one pass over the data gath
 statistics of its linear SFA, a second pass those of its expanded SFA. The layer's input (the
 output of the fitted layers below, for all training data) is kept in memory between the two
 passes if it fits in ``cache_mb``, else recomputed chunk by chunk. Expanded data never exists
-beyond one chunk; covariances are summed in float64.
+beyond one chunk; covariances are summed in float64. The second moments of expanded data are
+gathered from its distinct fourth moments (:class:`~sfa_gym.sfa._moments.QuadraticGram`) where
+the BLAS kernels make that faster.
+
+Threads. Chunks are processed ``n_jobs`` at a time by a thread pool with BLAS single-threaded
+(see :mod:`sfa_gym.sfa._parallel`: multi-threaded BLAS collapses on a machine shared with other
+processes). Each chunk's statistics are kept apart and added in chunk order, so a model does
+not depend on the number of threads, bit for bit; the same input gives the same output.
 
 Sign convention: every node output, and so every returned feature, is signed so that it rises
 on average over the training sequence (positive covariance with the index of the training
@@ -35,7 +42,10 @@ location, and node ``j`` of layer ``l`` in view ``k`` is dense column ``(j P_l +
 (``m = step / s1``). The statistics over all views are then weighted statistics over the dense
 grid (the weight of a column = how many (view, node) pairs land on it), plus the differences
 between consecutive views (columns ``o -> o + m``) and across locations. This gives the same
-model as training on every rotated view (tested), at a fraction of the cost.
+model as training on every rotated view (tested), at a fraction of the cost. On the dense grid
+the inputs of neighbouring nodes of layers 2, 3, ... overlap, and the second moments of their
+linear SFA are assembled from cross-correlations of the layer input, each product of two input
+values formed once (:mod:`sfa_gym.sfa._periodic`).
 """
 
 from __future__ import annotations
@@ -52,7 +62,9 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from sfa_gym.sfa._layers import Affine, LayerParams, layer_patches
-from sfa_gym.sfa._moments import Moments
+from sfa_gym.sfa._moments import Moments, fourth_moments_pay_off
+from sfa_gym.sfa._parallel import n_workers, ordered_map, single_threaded_blas
+from sfa_gym.sfa._periodic import plan_weighted_gram
 from sfa_gym.sfa.expansion import n_quadratic_features, quadratic_expand
 from sfa_gym.sfa.linear import NotFittedError, RankDeficiencyWarning, sequence_starts, solve_sfa
 from sfa_gym.sfa.spec import LayerSpec, layer_grids
@@ -95,11 +107,16 @@ class HierarchicalSFA:
             are dropped (None: 1e-6 for float32, 1e-9 for float64).
         batch_size: frames (or panoramas, for the rotation shortcut) per chunk; None picks it
             from ``memory_mb``.
-        memory_mb: target size of the per-chunk working arrays, in MB.
+        memory_mb: target size of the working arrays of one chunk, in MB (up to ``n_jobs``
+            chunks are processed at a time).
         cache_mb: while training layer ``l``, keep the output of layer ``l-1`` for all training
             data in memory if it fits in this many MB (it is read twice: by the linear and the
             expanded pass; otherwise it is recomputed from the lower layers each time).
         progress: show tqdm progress bars while training.
+        n_jobs: threads for training and inference (None: all CPUs available to the process).
+            Chunks of data are processed in parallel and their statistics combined in a fixed
+            order, so the result is the same, bit for bit, for any ``n_jobs``; BLAS runs
+            single-threaded meanwhile (see :mod:`sfa_gym.sfa._parallel` for why).
 
     Attributes (after fitting):
         input_shape_: ``(H, W, 3)`` of the training views.
@@ -123,6 +140,7 @@ class HierarchicalSFA:
         memory_mb: float = 256.0,
         cache_mb: float = 2048.0,
         progress: bool = True,
+        n_jobs: int | None = None,
     ) -> None:
         self.layers = layers
         self.n_outputs = n_outputs
@@ -134,6 +152,7 @@ class HierarchicalSFA:
         self.memory_mb = memory_mb
         self.cache_mb = cache_mb
         self.progress = progress
+        self.n_jobs = n_jobs
 
     # -- parameters and geometry ------------------------------------------------------------
     def _validated_layers(self) -> list[LayerSpec]:
@@ -167,6 +186,9 @@ class HierarchicalSFA:
             raise ValueError(f"memory_mb must be positive, got {self.memory_mb!r}")
         if not self.cache_mb >= 0:
             raise ValueError(f"cache_mb must be >= 0, got {self.cache_mb!r}")
+        j = self.n_jobs
+        if j is not None and (isinstance(j, bool) or not isinstance(j, int | np.integer) or j < 1):
+            raise ValueError(f"n_jobs must be a positive int or None, got {j!r}")
         return layers
 
     def _grids(self, layers: list[LayerSpec], height: int, width: int) -> list[tuple[int, int]]:
@@ -182,6 +204,9 @@ class HierarchicalSFA:
     @property
     def _np_dtype(self) -> type[np.floating]:
         return np.float32 if self.dtype == "float32" else np.float64
+
+    def _workers(self) -> int:
+        return n_workers(getattr(self, "n_jobs", None))
 
     def _layer_clip(self, index: int, n_layers: int) -> float | None:
         return None if index == n_layers - 1 else self.clip
@@ -302,7 +327,18 @@ class HierarchicalSFA:
         input_shape: tuple[int, int, int],
         source: _Source,
     ) -> None:
+        with single_threaded_blas():
+            self._train_layers(layers, grids, input_shape, source)
+
+    def _train_layers(
+        self,
+        layers: list[LayerSpec],
+        grids: list[tuple[int, int]],
+        input_shape: tuple[int, int, int],
+        source: _Source,
+    ) -> None:
         dtype = self._np_dtype
+        workers = self._workers()
         tol = DEFAULT_RANK_TOL[self.dtype] if self.rank_tol is None else float(self.rank_tol)
         shared = bool(self.weight_sharing)
         params: list[LayerParams] = []
@@ -321,7 +357,11 @@ class HierarchicalSFA:
                 clips=[self._layer_clip(i, n_layers) for i in range(li)],
                 shared=shared,
                 dtype=dtype,
+                # the chunk size follows layer 1 throughout: float32 products are summed over
+                # a chunk, and larger chunks at the top (cached inputs would allow them) made
+                # the slowest outputs measurably noisier
                 batch=self._batch(self._item_bytes(layers, grids, li, source.dense_cols)),
+                workers=workers,
                 cache=cache,
                 cache_level=cache_level,
             )
@@ -340,7 +380,11 @@ class HierarchicalSFA:
             reduce = _solve_layer(moments, red_dim, tol, f"{ctx} linear SFA", grid, shared)
             expand = None
             if quadratic:
-                moments = Moments(n_quadratic_features(reduce.out_dim), groups, center=False)
+                k = reduce.out_dim
+                fourth = shared and fourth_moments_pay_off()
+                moments = Moments(
+                    n_quadratic_features(k), groups, center=False, quadratic=k if fourth else None
+                )
                 with self._bar(f"{desc} expanded", source.n_blocks(job.batch)) as bar:
                     expanded = partial(_reduce_and_expand, reduce)
                     source.accumulate(job, spec, grid, expanded, moments, bar)
@@ -391,9 +435,18 @@ class HierarchicalSFA:
         out = np.empty((n, self.n_outputs), dtype=np.float64)
         layers = [p.spec for p in params]
         batch = self._batch(self._item_bytes(layers, self.grids_, len(layers) - 1) / 2)
-        for i0 in range(0, n, batch):
-            a = self.forward(views[i0 : i0 + batch])
+        # at least two chunks for threads to share, unless the batch is small; the split does not
+        # depend on the number of threads, so neither do the results
+        batch = max(min(batch, -(-n // 2)), min(n, 8), 1)
+        workers = self._workers()
+
+        def run(i0: int) -> None:
+            a = self._forward(params, views[i0 : i0 + batch])
             out[i0 : i0 + a.shape[0]] = a[:, 0, 0, : self.n_outputs]
+
+        with single_threaded_blas():
+            for _ in ordered_map(run, range(0, n, batch), workers):
+                pass
         return out
 
     def transform_rotations(
@@ -448,11 +501,18 @@ class HierarchicalSFA:
         )
         top = params[-1]
         cols = (np.arange(n_rot) * source.m) % source.n1  # dense column of the top node, view k
-        for l0 in range(0, n_loc, job.batch):
-            l1 = min(l0 + job.batch, n_loc)
+        workers = self._workers()
+        batch = max(min(job.batch, -(-n_loc // 2)), 1)
+
+        def run(chunk: tuple[int, int]) -> None:
+            l0, l1 = chunk
             a = source.layer_input(job, l0, l1)
             x = source.node_inputs(n_layers - 1, top.spec, top.grid, a)[:, :, cols]
             out[l0:l1] = top.nodes(x, None)[:, 0, :, : self.n_outputs]
+
+        with single_threaded_blas():
+            for _ in ordered_map(run, source.chunks(batch), workers):
+                pass
         return out
 
     def forward(self, views: NDArray[np.uint8], n_layers: int | None = None) -> NDArray[Any]:
@@ -462,6 +522,12 @@ class HierarchicalSFA:
         top layer), in the model's dtype; all top outputs, not only the first ``n_outputs``.
         """
         params = self._check_fitted()
+        with single_threaded_blas():
+            return self._forward(params, views, n_layers)
+
+    def _forward(
+        self, params: list[LayerParams], views: NDArray[Any], n_layers: int | None = None
+    ) -> NDArray[Any]:
         a = np.asarray(views).astype(self._np_dtype)
         total = len(params)
         for i, p in enumerate(params[: total if n_layers is None else n_layers]):
@@ -565,6 +631,7 @@ class _Pass:
     shared: bool
     dtype: type[np.floating]
     batch: int
+    workers: int = 1
     cache: NDArray[np.floating] | None = None
     cache_level: int = 0
 
@@ -604,17 +671,63 @@ class _Source:
             a = self.run_layer(i, job.params[i], job.clips[i], a)
         return a
 
+    def chunks(self, batch: int) -> list[tuple[int, int]]:
+        """``[(i0, i1)]`` item ranges of at most ``batch`` items, in order."""
+        return [(i0, min(i0 + batch, self.n_items)) for i0 in range(0, self.n_items, batch)]
+
     def outputs(self, job: _Pass, bar: tqdm) -> NDArray[np.floating]:
         """The input of the next layer for every item, stacked (to cache it)."""
-        out = None
-        for i0 in range(0, self.n_items, job.batch):
-            i1 = min(i0 + job.batch, self.n_items)
-            a = self.layer_input(job, i0, i1)
-            if out is None:
-                out = np.empty((self.n_items, *a.shape[1:]), dtype=a.dtype)
-            out[i0:i1] = a
+        chunks = self.chunks(job.batch)
+        first = self.layer_input(job, *chunks[0])
+        out = np.empty((self.n_items, *first.shape[1:]), dtype=first.dtype)
+        out[: len(first)] = first
+        bar.update()
+
+        def fill(chunk: tuple[int, int]) -> None:  # chunks write disjoint slices
+            out[chunk[0] : chunk[1]] = self.layer_input(job, *chunk)
+
+        for _ in ordered_map(fill, chunks[1:], job.workers):
             bar.update()
-        return out  # type: ignore[return-value]  # n_items >= 1
+        return out
+
+    def _accumulate_chunks(
+        self,
+        job: _Pass,
+        moments: Moments,
+        work: Callable[[tuple[int, int], Moments], tuple[Moments, Any, Any]],
+        continues: Callable[[int], bool],
+        bar: tqdm,
+    ) -> None:
+        """Run ``work(chunk, into)`` over all chunks and add the boundary differences.
+
+        ``work`` adds a chunk's samples and inner differences to ``into`` and returns
+        ``(into, head, tail)``: the features ``(F, 1, R, C)`` of its first and last item (the
+        last view of a location for the rotation source). The first chunk goes straight into
+        ``moments`` (it sets the origin of the statistics); later chunks run ``job.workers`` at a
+        time on empty copies that are merged in chunk order, so the sums do not depend on the
+        number of workers. The difference from one chunk's tail to the next chunk's head is
+        added after the merge if ``continues(i0)`` (the next chunk continues the sequence).
+        """
+        chunks = self.chunks(job.batch)
+        _, _, tail = work(chunks[0], moments)
+        bar.update()
+        # per-node statistics (no weight sharing) are too large to copy per chunk: those go
+        # straight into ``moments``, one chunk at a time
+        separate = moments.n_groups == 1
+        workers = job.workers if separate else 1
+
+        def task(chunk: tuple[int, int]) -> tuple[Moments, Any, Any]:
+            return work(chunk, moments.partial() if separate else moments)
+
+        for chunk, (part, head, new_tail) in zip(
+            chunks[1:], ordered_map(task, chunks[1:], workers), strict=True
+        ):
+            if part is not moments:
+                moments.merge(part)
+            if continues(chunk[0]):
+                moments.add_differences(_groups(head - tail, job.shared))
+            tail = new_tail
+            bar.update()
 
     def accumulate(
         self,
@@ -649,25 +762,23 @@ class _ViewSource(_Source):
         return np.asarray(self.get(i0, i1)).astype(dtype)
 
     def accumulate(self, job, spec, grid, featurize, moments, bar) -> None:
-        carry = None
         shared = job.shared
         li = len(job.params)
-        for i0 in range(0, self.n_items, job.batch):
-            i1 = min(i0 + job.batch, self.n_items)
+
+        def work(chunk: tuple[int, int], into: Moments) -> tuple[Moments, Any, Any]:
+            i0, i1 = chunk
             x = featurize(self.node_inputs(li, spec, grid, self.layer_input(job, i0, i1)))
             _, _, r, c = x.shape  # (F, n, R, C)
             t = np.arange(i0, i1, dtype=np.float64)
-            moments.add_samples(_groups(x, shared), np.repeat(t, r * c) if shared else t)
-            starts = self.starts[i0:i1]
-            inner = ~starts[1:]
+            into.add_samples(_groups(x, shared), np.repeat(t, r * c) if shared else t)
+            inner = ~self.starts[i0 + 1 : i1]
             if inner.all():
-                moments.add_differences(_groups(x[:, 1:] - x[:, :-1], shared))
+                into.add_differences(_groups(x[:, 1:] - x[:, :-1], shared))
             elif inner.any():
-                moments.add_differences(_groups(x[:, 1:][:, inner] - x[:, :-1][:, inner], shared))
-            if carry is not None and not starts[0]:
-                moments.add_differences(_groups(x[:, :1] - carry, shared))
-            carry = x[:, -1:].copy()
-            bar.update()
+                into.add_differences(_groups(x[:, 1:][:, inner] - x[:, :-1][:, inner], shared))
+            return into, x[:, :1].copy(), x[:, -1:].copy()
+
+        self._accumulate_chunks(job, moments, work, lambda i0: not self.starts[i0], bar)
 
 
 class _DenseRotationSource(_Source):
@@ -710,34 +821,56 @@ class _DenseRotationSource(_Source):
         tk2 = np.bincount(cols.ravel(), weights=(kk**2).ravel(), minlength=n1)
         pairs = np.bincount(cols[:-1].ravel(), minlength=n1).astype(np.float64)
         first, last = cols[0], cols[-1]
-        carry = None
-        for l0 in range(0, self.n_items, job.batch):
-            l1 = min(l0 + job.batch, self.n_items)
-            x = featurize(self.node_inputs(li, spec, grid, self.layer_input(job, l0, l1)))
+        # linear SFA of layers 2, 3, ...: products from cross-correlations of the layer input
+        plans = None
+        if featurize is _features_first and li > 0:
+            geometry = {
+                "rows_in": job.params[-1].grid[0],
+                "channels": job.params[-1].out_dim,
+                "field": spec.field,
+                "row_stride": spec.stride[0],
+                "n_rows": grid[0],
+                "dilation": self.unit[li - 1],
+            }
+            plans = (plan_weighted_gram(w, **geometry), plan_weighted_gram(pairs, **geometry))
+            if None in plans:
+                plans = None
+
+        def work(chunk: tuple[int, int], into: Moments) -> tuple[Moments, Any, Any]:
+            l0, l1 = chunk
+            a = self.layer_input(job, l0, l1)
+            x = featurize(self.node_inputs(li, spec, grid, a))
             f, n_l, r, _ = x.shape  # (F, L, R, n1)
             # view k = location * K + k is the time index of every node of that view
             base = (np.arange(l0, l1, dtype=np.float64) * n_rot)[:, None, None]
             shape = (n_l, r, n1)
-            moments.add_samples(
+            into.add_samples(
                 x.reshape(1, f, -1),
                 times=np.broadcast_to(base * w + tk, shape).ravel(),
                 weights=np.broadcast_to(w, shape).ravel(),
                 times_sq=np.broadcast_to(base**2 * w + 2 * base * tk + tk2, shape).ravel(),
+                outer=None if plans is None else plans[0].gram(a, lambda c: x[..., c])[None],
             )
             # consecutive views: dense column o -> o + m, weighted by how many node pairs
-            d = np.empty_like(x)
-            np.subtract(x[..., m:], x[..., : n1 - m], out=d[..., : n1 - m])
-            np.subtract(x[..., :m], x[..., n1 - m :], out=d[..., n1 - m :])
-            moments.add_differences(d.reshape(1, f, -1), np.broadcast_to(pairs, shape).ravel())
-            del d
+            if plans is None:
+                d = np.empty_like(x)
+                np.subtract(x[..., m:], x[..., : n1 - m], out=d[..., : n1 - m])
+                np.subtract(x[..., :m], x[..., n1 - m :], out=d[..., n1 - m :])
+                into.add_differences(d.reshape(1, f, -1), np.broadcast_to(pairs, shape).ravel())
+                del d
+            else:
+                # the node inputs of the difference field are the differences of node inputs
+                da = np.take(a, (np.arange(n1) + m) % n1, axis=2) - a
+                outer = plans[1].gram(da, lambda c: x[..., (c + m) % n1] - x[..., c])
+                into.add_difference_moments(outer[None], n_l * r * float(pairs.sum()))
             # from the last view of one location to the first view of the next
             if n_l > 1:
                 d = _take_cols(x[:, 1:], first) - _take_cols(x[:, :-1], last)
-                moments.add_differences(d.reshape(1, f, -1))
-            if carry is not None:
-                moments.add_differences((_take_cols(x[:, :1], first) - carry).reshape(1, f, -1))
-            carry = _take_cols(x[:, -1:], last)
-            bar.update()
+                into.add_differences(d.reshape(1, f, -1))
+            # copies: a view would keep the whole chunk alive until it is merged
+            return into, _take_cols(x[:, :1], first).copy(), _take_cols(x[:, -1:], last).copy()
+
+        self._accumulate_chunks(job, moments, work, lambda i0: True, bar)
 
 
 def _take_cols(x: NDArray[np.floating], idx: NDArray[np.intp]) -> NDArray[np.floating]:

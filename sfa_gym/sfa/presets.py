@@ -22,8 +22,10 @@ network returns the slowest ``n_outputs``). ``describe(preset(), shape)`` prints
     layer 4: 1 x 1 node,     field 2x10, stride 2x10, wrap; 640 -> 32 -> 560 -> 32
 
 Training cost with the rotation shortcut grows with (dense grid rows) x (node input dim)^2 per
-layer, so layer 2 of the outdoor network (the largest dense grid after layer 1) gets a narrow
-field; a 3 x 10 field there (960 inputs) made training about 15 % slower.
+layer for the expanded SFA, so layer 2 of the outdoor network (the largest dense grid after
+layer 1) gets a narrow field; a 3 x 10 field there (960 inputs) made training about 15 % slower
+(measured before the linear SFA of layers 2-4 was computed from cross-correlations, which grow
+only linearly with the field width).
 """
 
 from __future__ import annotations

@@ -1,0 +1,146 @@
+"""Engine internals: moments of quadratic expansions and of periodic node inputs, BLAS threads,
+the ordered thread map."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from sfa_gym.sfa import _parallel
+from sfa_gym.sfa._layers import extract_patches
+from sfa_gym.sfa._moments import Moments, QuadraticGram, _pair_groups
+from sfa_gym.sfa._periodic import plan_weighted_gram, smallest_period
+from sfa_gym.sfa.expansion import n_quadratic_features, quadratic_expand
+
+
+@pytest.mark.parametrize("k", [1, 2, 5, 9, 32])
+def test_pair_groups_cover_every_second_index_once(k):
+    groups = _pair_groups(k)
+    assert groups[0][0] == 0 and groups[-1][1] == k
+    assert all(a[1] == b[0] and a[0] < a[1] for a, b in zip(groups, groups[1:], strict=False))
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 7, 12])
+def test_quadratic_gram_equals_the_direct_gram_of_the_expansion(k):
+    rng = np.random.default_rng(k)
+    y = rng.standard_normal((k, 300))
+    q = quadratic_expand(y, axis=0)
+    plan = QuadraticGram(k)
+    assert plan.n_features == n_quadratic_features(k)
+    for w in (None, rng.integers(0, 4, 300).astype(np.float64)):
+        got = plan.assemble([p.ravel() for p in plan.products(q, w)])
+        want = (q if w is None else q * w) @ q.T
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+
+
+def test_quadratic_moments_equal_plain_moments_over_chunks():
+    rng = np.random.default_rng(0)
+    k = 6
+    e = n_quadratic_features(k)
+    fast, plain = Moments(e, center=False, quadratic=k), Moments(e, center=False)
+    for i, weighted in enumerate((False, True, True)):
+        q = quadratic_expand(rng.standard_normal((k, 200)) + i, axis=0)
+        w = rng.integers(1, 3, 200).astype(np.float64) if weighted else None
+        if i == 2:
+            w = np.full(200, 3.0)  # one count for all rows takes the scaled path
+        t = np.arange(200.0) + 200 * i
+        for m in (fast, plain):
+            m.add_samples(q[None], t * (1 if w is None else w), w)
+            m.add_differences(np.diff(q, axis=1)[None])
+    a, b = fast.finish(), plain.finish()
+    for name in ("mean", "cov", "dcov", "cov_xt"):
+        np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-11, atol=1e-11)
+    with pytest.raises(ValueError, match="quadratic expansion"):
+        Moments(e + 1, center=False, quadratic=k)
+
+
+def test_partial_statistics_merge_to_the_serial_result():
+    rng = np.random.default_rng(1)
+    chunks = [rng.standard_normal((1, 5, 40)) + 100 for _ in range(3)]
+    serial = Moments(5)
+    for i, x in enumerate(chunks):
+        serial.add_samples(x, np.arange(40.0) + 40 * i)
+    merged = Moments(5)
+    merged.add_samples(chunks[0], np.arange(40.0))
+    for i, x in enumerate(chunks[1:], start=1):
+        part = merged.partial()
+        part.add_samples(x, np.arange(40.0) + 40 * i)
+        merged.merge(part)
+    np.testing.assert_array_equal(serial.finish().cov, merged.finish().cov)
+    with pytest.raises(ValueError, match="origin"):
+        Moments(5).partial()
+    with pytest.raises(ValueError, match="same origin"):
+        merged.merge(serial)
+
+
+@pytest.mark.skipif(not _parallel.blas_controllable(), reason="no OpenBLAS in this process")
+def test_single_threaded_blas_is_scoped_and_nestable():
+    handles = _parallel._openblas_handles()
+    before = [get() for get, _ in handles]
+    with _parallel.single_threaded_blas():
+        assert all(get() == 1 for get, _ in handles)
+        with _parallel.single_threaded_blas():
+            assert all(get() == 1 for get, _ in handles)
+        assert all(get() == 1 for get, _ in handles)
+    assert [get() for get, _ in handles] == before
+
+
+def test_ordered_map_keeps_the_order_and_raises_errors():
+    def slow_square(i: int) -> tuple[int, str]:
+        time.sleep(0.002 * ((7 * i) % 5))  # finish out of order
+        return i * i, threading.current_thread().name
+
+    for workers in (1, 3):
+        out = list(_parallel.ordered_map(slow_square, range(12), workers))
+        assert [v for v, _ in out] == [i * i for i in range(12)]
+        threads = {name for _, name in out}
+        assert (threads == {threading.current_thread().name}) == (workers == 1)
+
+    def fail(i: int) -> int:
+        if i == 4:
+            raise RuntimeError("chunk 4 failed")
+        return i
+
+    with pytest.raises(RuntimeError, match="chunk 4"):
+        list(_parallel.ordered_map(fail, range(8), 2))
+
+
+@pytest.mark.parametrize(
+    ("rows_in", "n", "d", "field", "row_stride", "dilation", "weights"),
+    [
+        (5, 12, 4, (3, 2), 2, 1, "uniform"),
+        (5, 24, 3, (3, 3), 1, 2, "period 3"),
+        (4, 24, 2, (2, 4), 2, 3, "sparse deficit"),
+        (3, 16, 2, (3, 5), 1, 1, "period 2 with zeros"),
+    ],
+)
+def test_periodic_gram_equals_the_direct_gram_of_the_node_inputs(
+    rows_in, n, d, field, row_stride, dilation, weights
+):
+    rng = np.random.default_rng(n + d)
+    z = rng.standard_normal((3, rows_in, n, d))
+    w = {
+        "uniform": np.full(n, 4.0),
+        "period 3": np.tile([3.0, 1.0, 2.0], n // 3),
+        "sparse deficit": np.where(np.arange(n) % 12 == 5, 2.0, 3.0),
+        "period 2 with zeros": np.tile([2.0, 0.0], n // 2),
+    }[weights]
+    n_rows = (rows_in - field[0]) // row_stride + 1
+    plan = plan_weighted_gram(w, rows_in, d, field, row_stride, n_rows, dilation)
+    assert plan is not None
+    x = np.moveaxis(extract_patches(z, field, (row_stride, 1), n, dilation), -1, 0)  # (F, L, R, n)
+    got = plan.gram(z, lambda c: x[..., c])
+    f = x.shape[0]
+    want = (x * w).reshape(f, -1) @ x.reshape(f, -1).T
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+    assert smallest_period(w) == {"uniform": 1, "period 3": 3, "period 2 with zeros": 2}.get(
+        weights, 12
+    )
+
+
+def test_irregular_weights_have_no_periodic_plan():
+    w = np.random.default_rng(0).integers(1, 5, 24).astype(np.float64)
+    assert plan_weighted_gram(w, 4, 2, (2, 3), 2, 2, 1) is None
