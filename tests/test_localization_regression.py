@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from sfa_gym.localization.regression import (
     KNNRegressor,
     LinearRegressor,
+    MapDecoder,
     NotFittedError,
     QuadraticRidge,
     make_regressor,
@@ -192,3 +193,57 @@ def test_bad_parameters_are_refused_clearly():
         KNNRegressor(algorithm="ball_tree").fit(x, y)
     with pytest.raises(ValueError, match="expanded features.*PCA"):
         QuadraticRidge().fit(np.zeros((3, 300)), np.zeros((3, 2)))
+
+
+# -- map decoder ---------------------------------------------------------------------------------
+
+
+def _cosine_features(xy: np.ndarray, noise: float = 0.0, seed: int = 0) -> np.ndarray:
+    """The slowest features of a random walk in the box [0, 6]^2: cosines along the axes and
+    their product, which no low-order regression of position on them inverts near the walls."""
+    u = xy / 6.0
+    f = np.stack(
+        [
+            np.cos(np.pi * u[:, 1]),
+            np.cos(np.pi * u[:, 0]),
+            np.cos(np.pi * u[:, 0]) * np.cos(np.pi * u[:, 1]),
+            np.cos(2 * np.pi * u[:, 1]),
+        ],
+        axis=1,
+    )
+    return f + noise * np.random.default_rng(seed).standard_normal(f.shape)
+
+
+def test_map_decoder_inverts_cosine_features_where_linear_regression_cannot():
+    rng = np.random.default_rng(0)
+    train, test = rng.uniform(0, 6, (300, 2)), rng.uniform(0.1, 5.9, (200, 2))
+    train[:4] = [[0, 0], [6, 6], [0, 6], [6, 0]]  # the box's corners bound the estimates
+    decoder = make_regressor("map", degree=3).fit(_cosine_features(train), train)
+    error = np.abs(decoder.predict(_cosine_features(test)) - test).mean()
+    linear = make_regressor("linear").fit(_cosine_features(train), train)
+    linear_error = np.abs(linear.predict(_cosine_features(test)) - test).mean()
+    assert error < 0.02  # metres: the fine grid's resolution, far below linear's error
+    assert linear_error > 10 * error
+
+
+def test_map_decoder_weights_the_noisier_feature_less():
+    rng = np.random.default_rng(1)
+    train, test = rng.uniform(0, 6, (400, 2)), rng.uniform(0.5, 5.5, (200, 2))
+    f_train, f_test = _cosine_features(train), _cosine_features(test)
+    noisy_train = np.c_[f_train, f_train[:, 0] + rng.normal(0, 1.0, len(train))]
+    noisy_test = np.c_[f_test, f_test[:, 0] + rng.normal(0, 1.0, len(test))]
+    decoder = MapDecoder(degree=3).fit(noisy_train, train)
+    assert decoder.weights_[4] < decoder.weights_[0] / 100
+    assert np.abs(decoder.predict(noisy_test) - test).mean() < 0.05
+
+
+def test_map_decoder_rejects_bad_targets_and_settings():
+    f = np.random.default_rng(0).normal(size=(20, 3))
+    with pytest.raises(ValueError, match="2-D positions"):
+        MapDecoder().fit(f, np.zeros((20, 3)))
+    with pytest.raises(ValueError, match="span no area"):
+        MapDecoder().fit(f, np.c_[np.arange(20.0), np.zeros(20)])
+    with pytest.raises(ValueError, match="degree must be an int >= 1"):
+        MapDecoder(degree=0).fit(f, np.random.default_rng(1).uniform(size=(20, 2)))
+    with pytest.raises(NotFittedError):
+        MapDecoder().predict(f)

@@ -173,11 +173,11 @@ def methods_with_sfa(
     config: Any, methods: Sequence[tuple[FeatureMethod, Sequence[str]]], progress: bool
 ) -> tuple[SlowFeatureMethod, list[tuple[FeatureMethod, Sequence[str]]]]:
     """Hierarchical SFA built from a protocol's ``config`` (evaluated with the paper's linear
-    regression and a quadratic one), followed by the extra ``methods``."""
+    regression, a quadratic one and the map decoder), followed by the extra ``methods``."""
     sfa = SlowFeatureMethod(
         config.network, config.node_dim, config.n_outputs, config.step, progress=progress
     )
-    return sfa, [(sfa, ("linear", "quadratic")), *methods]
+    return sfa, [(sfa, ("linear", "quadratic", "map")), *methods]
 
 
 def results_header(protocol: str, config: Any, width: int) -> dict[str, Any]:

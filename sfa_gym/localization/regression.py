@@ -6,8 +6,10 @@ Three estimators with the scikit-learn conventions (``__init__`` stores paramete
 - :class:`LinearRegressor`: least squares with an intercept, as in the paper (optional ridge).
 - :class:`QuadraticRidge`: all products of pairs of standardized features, then ridge regression.
 - :class:`KNNRegressor`: mean position of the ``k`` nearest training features (``cKDTree``).
+- :class:`MapDecoder`: learns each feature as a smooth map over the plane and returns the
+  position whose mapped features best match (for 2-D positions).
 
-:func:`make_regressor` builds one by name (``"linear"``, ``"quadratic"``, ``"knn"``).
+:func:`make_regressor` builds one by name (``"linear"``, ``"quadratic"``, ``"knn"``, ``"map"``).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from scipy.spatial import cKDTree
 __all__ = [
     "KNNRegressor",
     "LinearRegressor",
+    "MapDecoder",
     "NotFittedError",
     "QuadraticRidge",
     "REGRESSORS",
@@ -342,16 +345,120 @@ class KNNRegressor(_FittedMixin):
         return distances, index
 
 
+def _cosine_basis(positions: NDArray[np.float64], low, high, degree: int) -> NDArray[np.float64]:
+    """``cos(i pi u) cos(j pi v)`` for ``i + j <= degree``, ``(u, v)`` = positions scaled to
+    ``[0, 1]`` over the box ``low..high``: the smooth functions of a rectangle (the slowest
+    features of a uniform random walk in a box are the first of them)."""
+    u = (positions - low) / (high - low)
+    cu = np.cos(np.pi * np.arange(degree + 1)[None, :] * u[:, :1])
+    cv = np.cos(np.pi * np.arange(degree + 1)[None, :] * u[:, 1:2])
+    return np.stack(
+        [cu[:, i] * cv[:, j] for i in range(degree + 1) for j in range(degree + 1 - i)], axis=1
+    )
+
+
+class MapDecoder(_FittedMixin):
+    """Position by inverting a smooth map of each feature over the plane.
+
+    Instead of regressing position on the features, ``fit`` learns the forward map: each
+    feature as a smooth function of position (a least-squares fit of the cosine basis
+    ``cos(i pi u) cos(j pi v)``, ``i + j <= degree``, over the bounding box of the training
+    positions), and the variance of each feature around its map. ``predict`` returns the
+    position whose mapped features are nearest to the observed ones (squared distance weighted
+    by the inverse variances: the maximum-likelihood position under independent Gaussian
+    noise), searched on a coarse grid over the box and refined on a fine grid around the best
+    cell. Slow features of a box-shaped arena look like the basis functions themselves
+    (cosines along the axes and their products), whose inverse no low-order regression of
+    position on features represents well near the walls; the forward map has few parameters
+    per feature, so it needs few labelled positions.
+
+    Estimates lie inside the box of the training positions. Targets must be 2-D positions.
+
+    Args:
+        degree: highest total degree ``i + j`` of the cosine basis (``(degree+1)(degree+2)/2``
+            coefficients per feature).
+        grid: coarse search grid points per axis; the fine search divides one coarse cell into
+            ``grid // 4`` steps each way around the best point.
+    """
+
+    def __init__(self, degree: int = 6, grid: int = 61) -> None:
+        self.degree = degree
+        self.grid = grid
+
+    def fit(self, features: ArrayLike, targets: ArrayLike) -> MapDecoder:
+        x, y = _check_fit_input(features, targets)
+        for name, low in (("degree", 1), ("grid", 5)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
+                raise ValueError(f"{name} must be an int >= {low}, got {value!r}")
+        if y.shape[1] != 2:
+            raise ValueError(f"MapDecoder decodes 2-D positions, got targets of shape {y.shape}")
+        low, high = y.min(axis=0), y.max(axis=0)
+        if np.any(high <= low):
+            raise ValueError(
+                f"the training positions span no area (range {high - low} m); MapDecoder needs "
+                "positions spread over both axes"
+            )
+        basis = _cosine_basis(y, low, high, self.degree)
+        coef, intercept = _ridge(basis[:, 1:], x, 1e-8 * len(x))
+        residual = x - (basis[:, 1:] @ coef + intercept)
+        # Features that the map explains worse count less; the floor keeps a perfectly explained
+        # feature from dominating through round-off.
+        variance = residual.var(axis=0)
+        self.weights_ = 1.0 / np.maximum(variance, 1e-6 * x.var(axis=0).max() + 1e-300)
+        self.coef_, self.intercept_ = coef, intercept
+        self.low_, self.high_ = low, high
+        self.n_features_in_ = x.shape[1]
+        return self
+
+    def _mapped(self, positions: NDArray[np.float64]) -> NDArray[np.float64]:
+        return _cosine_basis(positions, self.low_, self.high_, self.degree)[:, 1:] @ self.coef_ + (
+            self.intercept_
+        )
+
+    def _nearest(self, x: NDArray[np.float64], candidates: NDArray[np.float64]) -> NDArray:
+        """Index ``(N,)`` or ``(N, C)``-wise argmin of the weighted distances to candidates."""
+        w = np.sqrt(self.weights_)
+        if candidates.ndim == 2:  # shared candidates (P, 2): one matrix product
+            mapped = self._mapped(candidates) * w
+            q = x * w
+            score = (mapped**2).sum(axis=1)[None, :] - 2.0 * q @ mapped.T
+            return score.argmin(axis=1)
+        n, c, _ = candidates.shape  # per-row candidates (N, C, 2)
+        mapped = self._mapped(candidates.reshape(n * c, 2)).reshape(n, c, -1)
+        return (((mapped - x[:, None, :]) * w) ** 2).sum(axis=2).argmin(axis=1)
+
+    def predict(self, features: ArrayLike) -> NDArray[np.float64]:
+        x = self._check_predict_input(features)
+        axes = [
+            np.linspace(lo, hi, self.grid) for lo, hi in zip(self.low_, self.high_, strict=True)
+        ]
+        coarse = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
+        cell = (self.high_ - self.low_) / (self.grid - 1)
+        steps = max(self.grid // 4, 2)
+        offsets = np.linspace(-1.0, 1.0, 2 * steps + 1)
+        fine = np.stack(np.meshgrid(offsets, offsets, indexing="ij"), axis=-1).reshape(-1, 2)
+        out = np.empty((len(x), 2))
+        for i0 in range(0, len(x), 1024):  # bounds the (rows x candidates) score matrix
+            part = x[i0 : i0 + 1024]
+            best = coarse[self._nearest(part, coarse)]
+            local = np.clip(best[:, None, :] + fine[None] * cell, self.low_, self.high_)
+            out[i0 : i0 + 1024] = local[np.arange(len(part)), self._nearest(part, local)]
+        return out
+
+
 REGRESSORS: dict[str, type] = {
     "linear": LinearRegressor,
     "quadratic": QuadraticRidge,
     "knn": KNNRegressor,
+    "map": MapDecoder,
 }
 """Regressors by name, for command lines and leaderboard configs."""
 
 
 def make_regressor(name: str, **params: Any) -> Regressor:
-    """A fresh regressor by name (``"linear"``, ``"quadratic"``, ``"knn"``) with ``params``."""
+    """A fresh regressor by name (``"linear"``, ``"quadratic"``, ``"knn"``,
+    ``"map"``) with ``params``."""
     if name not in REGRESSORS:
         raise ValueError(f"unknown regressor {name!r}; expected one of {sorted(REGRESSORS)}")
     return REGRESSORS[name](**params)
