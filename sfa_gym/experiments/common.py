@@ -17,6 +17,9 @@ from sfa_gym.localization.methods import FeatureMethod
 from sfa_gym.rotation import n_rotations, rotated_views
 from sfa_gym.sfa import HierarchicalSFA, presets
 
+FIGURE_REGRESSOR = "map"
+"""The regression whose SFA estimates the estimate and error-map figures show."""
+
 NETWORKS = {
     "paper_sim": lambda h, w, d: presets.paper_sim(dim=d, out_dim=d),
     "paper_outdoor": lambda h, w, d: presets.paper_outdoor(dim=d, out_dim=d),

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym.experiments.common import (
+    FIGURE_REGRESSOR,
     NETWORKS,
     SlowFeatureMethod,
     fit_method,
@@ -185,7 +186,7 @@ def run_grid_experiment(
                 "paper_splits": mae_dict(splits),
                 "train_test": mae_dict(mae(estimates, test_xy)),
             }
-            if method is sfa and name == "linear":
+            if method is sfa and name == FIGURE_REGRESSOR:
                 sfa_outputs["estimates"] = estimates
         results["methods"][method.name] = entry
         if method is sfa:

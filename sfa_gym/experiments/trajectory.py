@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from sfa_gym.experiments.common import (
+    FIGURE_REGRESSOR,
     NETWORKS,
     fit_method,
     invariance_entry,
@@ -379,7 +380,7 @@ def run_trajectory_experiment(
                     if where.any()
                     else None
                 )
-            if method is sfa and name == "linear":
+            if method is sfa and name == FIGURE_REGRESSOR:
                 sfa_outputs["estimates"] = estimates
         results["methods"][method.name] = entry
         if method is sfa:
