@@ -61,6 +61,8 @@ class BandMeans:
     """Feature method: :func:`band_means` of each view."""
 
     name = "band_means"
+    extra_regressors = ("map",)
+    """regressions reported besides ``linear`` and ``regressor``"""
 
     def __init__(self, args: Args = Args()) -> None:
         self.args = args

@@ -76,6 +76,8 @@ class FFTMagnitude:
     """Feature method: :func:`fft_magnitude` of each view."""
 
     name = "fft_magnitude"
+    extra_regressors = ("map",)
+    """regressions reported besides ``linear`` and ``regressor``"""
 
     def __init__(self, args: Args = Args()) -> None:
         self.args = args

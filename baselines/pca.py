@@ -86,6 +86,8 @@ class PCA:
     """
 
     name = "pca"
+    extra_regressors = ("map",)
+    """regressions reported besides ``linear`` and ``regressor``"""
 
     def __init__(self, args: Args = Args()) -> None:
         self.args = args

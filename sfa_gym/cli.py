@@ -124,9 +124,9 @@ def cmd_localize_run(args: argparse.Namespace) -> int:
     return _report(results, args.out)
 
 
-def _baselines(args: argparse.Namespace) -> list[tuple[Any, tuple[str, str]]]:
-    """The feature methods of the baselines folder, each with the linear regression and the
-    regression it is paired with."""
+def _baselines(args: argparse.Namespace) -> list[tuple[Any, tuple[str, ...]]]:
+    """The feature methods of the baselines folder, each with the linear regression, the
+    regression it is paired with and the ones it lists in ``extra_regressors``."""
     from sfa_gym.localization.methods import list_method_files, load_method_file
 
     folder = None if args.no_baselines else _baselines_folder(args.baselines)
@@ -134,7 +134,8 @@ def _baselines(args: argparse.Namespace) -> list[tuple[Any, tuple[str, str]]]:
     if folder is not None:
         for path in list_method_files(folder):
             method = load_method_file(path)()
-            methods.append((method, ("linear", getattr(method, "regressor", "linear"))))
+            regressors = ("linear", getattr(method, "regressor", "linear"))
+            methods.append((method, regressors + tuple(getattr(method, "extra_regressors", ()))))
     return methods
 
 

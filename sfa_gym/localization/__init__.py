@@ -18,6 +18,7 @@ from sfa_gym.localization.metrics import (
 from sfa_gym.localization.regression import (
     KNNRegressor,
     LinearRegressor,
+    MapDecoder,
     QuadraticRidge,
     make_regressor,
 )
@@ -29,6 +30,7 @@ __all__ = [
     "FeatureMethod",
     "KNNRegressor",
     "LinearRegressor",
+    "MapDecoder",
     "MethodFactory",
     "QuadraticRidge",
     "SplitMAE",
