@@ -378,7 +378,7 @@ class MapDecoder(_FittedMixin):
         degree: highest total degree ``i + j`` of the cosine basis (``(degree+1)(degree+2)/2``
             coefficients per feature).
         grid: coarse search grid points per axis; the fine search divides one coarse cell into
-            ``grid // 4`` steps each way around the best point.
+            4 steps each way around the best point.
     """
 
     def __init__(self, degree: int = 6, grid: int = 61) -> None:
@@ -435,7 +435,7 @@ class MapDecoder(_FittedMixin):
         ]
         coarse = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
         cell = (self.high_ - self.low_) / (self.grid - 1)
-        steps = max(self.grid // 4, 2)
+        steps = 4
         offsets = np.linspace(-1.0, 1.0, 2 * steps + 1)
         fine = np.stack(np.meshgrid(offsets, offsets, indexing="ij"), axis=-1).reshape(-1, 2)
         out = np.empty((len(x), 2))
