@@ -146,7 +146,7 @@ def run_grid_experiment(
             reused (or resumed) by the next call with the same settings.
         methods: extra feature methods with the regressions to evaluate them with (names of
             :func:`~sfa_gym.localization.regression.make_regressor`). Hierarchical SFA comes
-            first, with the linear regression (the paper) and a quadratic one.
+            first, with the linear regression (the paper), a quadratic one and the map decoder.
         progress: progress bars.
         figures: write the PNG figures (firing maps, estimates, error map).
 

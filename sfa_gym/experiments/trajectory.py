@@ -323,7 +323,7 @@ def run_trajectory_experiment(
             ``test.run`` and reused (or resumed) by the next call with the same settings.
         methods: extra feature methods with the regressions to evaluate them with (names of
             :func:`~sfa_gym.localization.regression.make_regressor`). Hierarchical SFA comes
-            first, with the linear regression (the paper) and a quadratic one.
+            first, with the linear regression (the paper), a quadratic one and the map decoder.
         progress: progress bars.
         figures: write the PNG figures (trajectories, estimates, error map, firing maps).
 
@@ -462,7 +462,7 @@ def _figures(
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title("test run, SFA + linear regression")
+    ax.set_title(f"test run, SFA + {FIGURE_REGRESSOR} regression")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, fontsize=8)
     inside = in_rectangle(test_xy, config.exclude)
     for row, axis in enumerate("xy"):
