@@ -416,34 +416,30 @@ class MapDecoder(_FittedMixin):
             self.intercept_
         )
 
-    def _nearest(self, x: NDArray[np.float64], candidates: NDArray[np.float64]) -> NDArray:
-        """Index ``(N,)`` or ``(N, C)``-wise argmin of the weighted distances to candidates."""
-        w = np.sqrt(self.weights_)
-        if candidates.ndim == 2:  # shared candidates (P, 2): one matrix product
-            mapped = self._mapped(candidates) * w
-            q = x * w
-            score = (mapped**2).sum(axis=1)[None, :] - 2.0 * q @ mapped.T
-            return score.argmin(axis=1)
-        n, c, _ = candidates.shape  # per-row candidates (N, C, 2)
-        mapped = self._mapped(candidates.reshape(n * c, 2)).reshape(n, c, -1)
-        return (((mapped - x[:, None, :]) * w) ** 2).sum(axis=2).argmin(axis=1)
-
     def predict(self, features: ArrayLike) -> NDArray[np.float64]:
         x = self._check_predict_input(features)
+        w = np.sqrt(self.weights_)
         axes = [
             np.linspace(lo, hi, self.grid) for lo, hi in zip(self.low_, self.high_, strict=True)
         ]
         coarse = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
+        # The coarse grid's features, mapped once: every row is scored against all of them
+        # with one matrix product (the squared norm of a row does not change its argmin).
+        coarse_mapped = self._mapped(coarse) * w
+        coarse_norms = (coarse_mapped**2).sum(axis=1)
         cell = (self.high_ - self.low_) / (self.grid - 1)
-        steps = 4
-        offsets = np.linspace(-1.0, 1.0, 2 * steps + 1)
+        offsets = np.linspace(-1.0, 1.0, 2 * 4 + 1)
         fine = np.stack(np.meshgrid(offsets, offsets, indexing="ij"), axis=-1).reshape(-1, 2)
         out = np.empty((len(x), 2))
         for i0 in range(0, len(x), 1024):  # bounds the (rows x candidates) score matrix
             part = x[i0 : i0 + 1024]
-            best = coarse[self._nearest(part, coarse)]
+            score = coarse_norms[None, :] - 2.0 * (part * w) @ coarse_mapped.T
+            best = coarse[score.argmin(axis=1)]
             local = np.clip(best[:, None, :] + fine[None] * cell, self.low_, self.high_)
-            out[i0 : i0 + 1024] = local[np.arange(len(part)), self._nearest(part, local)]
+            n, c, _ = local.shape
+            mapped = self._mapped(local.reshape(n * c, 2)).reshape(n, c, -1)
+            nearest = (((mapped - part[:, None, :]) * w) ** 2).sum(axis=2).argmin(axis=1)
+            out[i0 : i0 + 1024] = local[np.arange(n), nearest]
         return out
 
 
