@@ -10,6 +10,7 @@ the baseline methods of a folder of plug-in files, results as JSON, a table and 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -84,20 +85,7 @@ def cmd_record(args: argparse.Namespace) -> int:
 def cmd_localize(args: argparse.Namespace) -> int:
     from sfa_gym.experiments import GridExperiment, run_grid_experiment
 
-    config = GridExperiment(
-        env_id=args.env,
-        world_seed=args.world_seed,
-        grid=args.grid,
-        n_train=args.n_train,
-        n_test=args.n_test,
-        order=args.order,
-        step=args.step,
-        network=args.network,
-        node_dim=args.node_dim,
-        n_outputs=args.n_outputs,
-        n_splits=args.n_splits,
-        seed=args.seed,
-    )
+    config = _settings(GridExperiment, args, env_id=args.env)
     config.validate()
     results = run_grid_experiment(config, args.out, _baselines(args), progress=not args.quiet)
     return _report(results, args.out)
@@ -106,22 +94,36 @@ def cmd_localize(args: argparse.Namespace) -> int:
 def cmd_localize_run(args: argparse.Namespace) -> int:
     from sfa_gym.experiments import TrajectoryExperiment, run_trajectory_experiment
 
-    config = TrajectoryExperiment(
+    config = _settings(
+        TrajectoryExperiment,
+        args,
         env_id=args.env,
-        world_seed=args.world_seed,
-        spacing=args.spacing,
-        spin=args.spin,
         exclude=None if args.no_exclude else tuple(args.exclude),
-        frame_every=args.frame_every,
-        eval_rotations=args.eval_rotations,
-        network=args.network,
-        node_dim=args.node_dim,
-        n_outputs=args.n_outputs,
-        seed=args.seed,
     )
     config.validate()
     results = run_trajectory_experiment(config, args.out, _baselines(args), progress=not args.quiet)
     return _report(results, args.out)
+
+
+def _settings(cls: type, args: argparse.Namespace, **given: Any) -> Any:
+    """A protocol's settings dataclass from the options of the same names, and ``given``."""
+    names = {f.name for f in dataclasses.fields(cls)} - set(given)
+    return cls(**{name: getattr(args, name) for name in names if hasattr(args, name)}, **given)
+
+
+def _add_sfa_options(parser: argparse.ArgumentParser, defaults: Any) -> None:
+    """Options of the hierarchical SFA network, shared by both protocols."""
+    from sfa_gym.experiments.common import NETWORKS, WEIGHT_SHARING
+
+    parser.add_argument("--network", default=defaults.network, choices=sorted(NETWORKS))
+    parser.add_argument("--node-dim", type=int, default=defaults.node_dim)
+    parser.add_argument("--n-outputs", type=int, default=defaults.n_outputs)
+    parser.add_argument(
+        "--weight-sharing",
+        default=defaults.weight_sharing,
+        choices=sorted(WEIGHT_SHARING),
+        help="one node per grid row (rows), per layer (layer, the paper) or per position (none)",
+    )
 
 
 def _baselines(args: argparse.Namespace) -> list[tuple[Any, tuple[str, ...]]]:
@@ -190,9 +192,7 @@ def build_parser() -> argparse.ArgumentParser:
     loc.add_argument("--n-test", type=int, default=defaults.n_test)
     loc.add_argument("--order", default=defaults.order, choices=("hilbert", "serpentine", "raster"))
     loc.add_argument("--step", type=int, default=defaults.step)
-    loc.add_argument("--network", default=defaults.network)
-    loc.add_argument("--node-dim", type=int, default=defaults.node_dim)
-    loc.add_argument("--n-outputs", type=int, default=defaults.n_outputs)
+    _add_sfa_options(loc, defaults)
     loc.add_argument("--n-splits", type=int, default=defaults.n_splits)
     loc.add_argument("--seed", type=int, default=defaults.seed)
     loc.add_argument("--baselines", default=None, help="folder of feature-method files")
@@ -224,9 +224,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--no-exclude", action="store_true", help="training run visits everything")
     run.add_argument("--frame-every", type=int, default=traj.frame_every)
     run.add_argument("--eval-rotations", type=int, default=traj.eval_rotations)
-    run.add_argument("--network", default=traj.network)
-    run.add_argument("--node-dim", type=int, default=traj.node_dim)
-    run.add_argument("--n-outputs", type=int, default=traj.n_outputs)
+    _add_sfa_options(run, traj)
     run.add_argument("--seed", type=int, default=traj.seed)
     run.add_argument("--baselines", default=None, help="folder of feature-method files")
     run.add_argument("--no-baselines", action="store_true", help="hierarchical SFA only")

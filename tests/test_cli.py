@@ -8,6 +8,7 @@ import numpy as np
 
 from sfa_gym.cli import main
 from sfa_gym.runs import load_run
+from sfa_gym.sfa import HierarchicalSFA
 
 
 def test_record_writes_a_run_a_panorama_strip_and_a_trajectory(tmp_path):
@@ -40,6 +41,7 @@ def test_localize_on_a_tiny_grid_learns_position(tmp_path):
     for name in ("firing_maps.png", "estimates.png", "error_map.png", "sfa_model.npz"):
         assert (out / name).stat().st_size > 1000, name
     assert "hierarchical_sfa" in (out / "results.txt").read_text()
+    assert HierarchicalSFA.load(out / "sfa_model.npz").weight_sharing == "rows"  # the default
 
 
 def test_localize_rejects_an_impossible_grid(tmp_path, capsys):
@@ -52,9 +54,11 @@ def test_localize_run_protocol_end_to_end(tmp_path):
     out = tmp_path / "traj"
     argv = ["localize-run", "--out", str(out), "--spacing", "2.0", "--frame-every", "8"]
     argv += ["--eval-rotations", "4", "--node-dim", "8", "--no-baselines", "--quiet"]
-    assert main(argv) == 0
+    assert main([*argv, "--weight-sharing", "layer"]) == 0
     results = json.loads((out / "results.json").read_text())
     assert results["protocol"] == "trajectory"
+    assert results["config"]["weight_sharing"] == "layer"
+    assert HierarchicalSFA.load(out / "sfa_model.npz").weight_sharing is True
     sfa = results["methods"]["hierarchical_sfa"]
     assert len(sfa["eta_phi"]) == 8
     assert (out / "sfa_model.npz").is_file()

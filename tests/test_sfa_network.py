@@ -165,6 +165,34 @@ def test_individually_learned_nodes(panoramas):
     assert not np.allclose(single.transform(views), shared.transform(views), atol=1e-3)
 
 
+def test_row_shared_nodes_shortcut_equals_brute_force_and_round_trips(panoramas, tmp_path):
+    fast = _net(weight_sharing="rows", batch_size=5).fit_rotations(panoramas, step=2)
+    slow = _net(weight_sharing="rows", batch_size=7, cache_mb=0).fit_rotations(
+        panoramas, step=2, method="brute-force"
+    )
+    assert fast.fit_method_ == "rotations-shortcut"
+    # one node per row of every layer's grid, replicated along the row
+    assert fast.layer_params_[0].reduce.weight.shape == (4, 1, 48, 6)
+    assert fast.layer_params_[1].expand.weight.shape[:2] == (2, 1)
+    views = _views(panoramas, 2)
+    y = fast.transform(views)
+    np.testing.assert_allclose(y, slow.transform(views), atol=1e-7)
+    np.testing.assert_allclose(
+        fast.transform_rotations(panoramas, step=2).reshape(-1, 4), y, atol=1e-9
+    )
+    # the same as individually learned nodes whose statistics are pooled along each row
+    a = _net(weight_sharing="rows", batch_size=13).fit(views)
+    np.testing.assert_allclose(a.transform(views), y, atol=1e-7)
+    rows0 = fast.layer_params_[0].reduce.weight[:, 0]
+    assert not np.allclose(rows0[0], rows0[-1], atol=1e-3)  # the rows learned different nodes
+    fast.save(tmp_path / "rows.npz")
+    back = HierarchicalSFA.load(tmp_path / "rows.npz")
+    assert back.weight_sharing == "rows"
+    np.testing.assert_array_equal(back.transform(views), y)
+    with pytest.raises(ValueError, match="weight_sharing must be True, False or 'rows'"):
+        _net(weight_sharing="columns").fit(views)
+
+
 @pytest.mark.parametrize("method", ["views", "rotations"])
 def test_training_is_deterministic_for_any_number_of_threads(panoramas, method):
     views = _views(panoramas[:5], 4)

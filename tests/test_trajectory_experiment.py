@@ -128,6 +128,7 @@ def test_eval_windows_and_rectangle():
         ({"train_steps": 1}, "train_steps must be None or an int >= 2"),
         ({"panorama": (10,)}, "panorama must be None or"),
         ({"network": "huge"}, "network must be one of"),
+        ({"weight_sharing": "columns"}, "weight_sharing must be one of"),
     ],
 )
 def test_validate_names_the_bad_setting(change, message, tmp_path):

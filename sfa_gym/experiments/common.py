@@ -26,6 +26,20 @@ NETWORKS = {
     "tiny": lambda h, w, d: presets.tiny(height=h, width=w, dim=d, out_dim=d),
 }
 
+WEIGHT_SHARING = {"layer": True, "rows": "rows", "none": False}
+"""Names of the weight-sharing modes of :class:`~sfa_gym.sfa.HierarchicalSFA` in the protocols'
+settings and on the command line."""
+
+
+def check_sfa_settings(config: Any) -> None:
+    """Raise ValueError if a protocol's ``network`` or ``weight_sharing`` is unknown."""
+    if config.network not in NETWORKS:
+        raise ValueError(f"network must be one of {sorted(NETWORKS)}, got {config.network!r}")
+    if config.weight_sharing not in WEIGHT_SHARING:
+        raise ValueError(
+            f"weight_sharing must be one of {sorted(WEIGHT_SHARING)}, got {config.weight_sharing!r}"
+        )
+
 
 class SlowFeatureMethod:
     """Hierarchical SFA as a feature method: fitted on all simulated rotations of a sequence of
@@ -40,28 +54,34 @@ class SlowFeatureMethod:
         node_dim: int = 32,
         n_outputs: int = 8,
         step: int = 5,
+        weight_sharing: str = "rows",
         progress: bool = True,
     ) -> None:
         self.network = network
         self.node_dim = node_dim
         self.n_outputs = n_outputs
         self.step = step
+        self.weight_sharing = weight_sharing
         self.progress = progress
+
+    def _new_model(self, h: int, w: int) -> HierarchicalSFA:
+        return HierarchicalSFA(
+            NETWORKS[self.network](h, w, self.node_dim),
+            n_outputs=self.n_outputs,
+            weight_sharing=WEIGHT_SHARING[self.weight_sharing],
+            progress=self.progress,
+        )
 
     def fit_rotations(self, panoramas: NDArray[np.uint8]) -> SlowFeatureMethod:
         """Fit on ``panoramas (L, H, W, 3)`` in visiting order, with all their rotations."""
         _, h, w, _ = panoramas.shape
-        layers = NETWORKS[self.network](h, w, self.node_dim)
-        self.model_ = HierarchicalSFA(layers, n_outputs=self.n_outputs, progress=self.progress)
-        self.model_.fit_rotations(panoramas, step=self.step)
+        self.model_ = self._new_model(h, w).fit_rotations(panoramas, step=self.step)
         self.input_shape_ = self.model_.input_shape_
         return self
 
     def fit(self, views: NDArray[np.uint8], sequence_ids: Any = None) -> SlowFeatureMethod:
         _, h, w, _ = views.shape
-        layers = NETWORKS[self.network](h, w, self.node_dim)
-        self.model_ = HierarchicalSFA(layers, n_outputs=self.n_outputs, progress=self.progress)
-        self.model_.fit(views, sequence_ids)
+        self.model_ = self._new_model(h, w).fit(views, sequence_ids)
         self.input_shape_ = self.model_.input_shape_
         return self
 
@@ -178,7 +198,12 @@ def methods_with_sfa(
     """Hierarchical SFA built from a protocol's ``config`` (evaluated with the paper's linear
     regression, a quadratic one and the map decoder), followed by the extra ``methods``."""
     sfa = SlowFeatureMethod(
-        config.network, config.node_dim, config.n_outputs, config.step, progress=progress
+        config.network,
+        config.node_dim,
+        config.n_outputs,
+        config.step,
+        weight_sharing=config.weight_sharing,
+        progress=progress,
     )
     return sfa, [(sfa, ("linear", "quadratic", "map")), *methods]
 

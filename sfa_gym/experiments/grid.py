@@ -30,8 +30,8 @@ from numpy.typing import NDArray
 
 from sfa_gym.experiments.common import (
     FIGURE_REGRESSOR,
-    NETWORKS,
     SlowFeatureMethod,
+    check_sfa_settings,
     fit_method,
     invariance_entry,
     mae_dict,
@@ -80,6 +80,11 @@ class GridExperiment:
     """linear SFA dimension and output dimension of every node"""
     n_outputs: int = 8
     """slow features used (the paper: 8)"""
+    weight_sharing: str = "rows"
+    """nodes that share weights: "rows" (one node per row of each layer's grid: rows see sky,
+    horizon or ground, while along the width every position sees the same patches once all
+    rotations are trained on), "layer" (one node per layer, the paper) or "none" (one per
+    position; no rotation shortcut, slow)"""
     n_splits: int = 100
     """random 50/50 splits of the test positions (the paper: 100)"""
     seed: int = 0
@@ -99,8 +104,7 @@ class GridExperiment:
             raise ValueError(
                 f"need n_train >= 2 and n_test >= 4, got {self.n_train} and {self.n_test}"
             )
-        if self.network not in NETWORKS:
-            raise ValueError(f"network must be one of {sorted(NETWORKS)}, got {self.network!r}")
+        check_sfa_settings(self)
 
 
 def select_positions(config: GridExperiment, n_positions: int) -> tuple[NDArray, NDArray]:

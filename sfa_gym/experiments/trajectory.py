@@ -39,7 +39,7 @@ from tqdm.auto import tqdm
 
 from sfa_gym.experiments.common import (
     FIGURE_REGRESSOR,
-    NETWORKS,
+    check_sfa_settings,
     fit_method,
     invariance_entry,
     mae_dict,
@@ -123,6 +123,11 @@ class TrajectoryExperiment:
     """linear SFA dimension and output dimension of every node"""
     n_outputs: int = 8
     """slow features used (the paper: 8)"""
+    weight_sharing: str = "rows"
+    """nodes that share weights: "rows" (one node per row of each layer's grid: rows see sky,
+    horizon or ground, while along the width every position sees the same patches once all
+    rotations are trained on), "layer" (one node per layer, the paper) or "none" (one per
+    position; no rotation shortcut, slow)"""
     seed: int = 0
     """seed of the env resets and the drivers of both runs"""
 
@@ -173,8 +178,7 @@ class TrajectoryExperiment:
                 raise ValueError(
                     f"test_insets must be a non-empty tuple of distances >= 0 (m), got {insets!r}"
                 )
-        if self.network not in NETWORKS:
-            raise ValueError(f"network must be one of {sorted(NETWORKS)}, got {self.network!r}")
+        check_sfa_settings(self)
 
 
 def _is_number(value: Any) -> bool:

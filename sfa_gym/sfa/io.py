@@ -169,7 +169,7 @@ def load_model(
     params = []
     channels = 3
     for i, (spec, grid, (r, o)) in enumerate(zip(layers, grids, node_dims, strict=True), start=1):
-        lead = () if model.weight_sharing else tuple(grid)
+        lead = {"layer": (), "rows": (grid[0], 1), "none": tuple(grid)}[model._sharing]
         f = spec.field[0] * spec.field[1] * channels
         stages = {"reduce": (f, r)}
         if spec.expansion == "quadratic":

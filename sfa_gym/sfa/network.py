@@ -27,13 +27,19 @@ on average over the training sequence (positive covariance with the index of the
 view; see :mod:`sfa_gym.sfa.linear`), which makes features comparable between runs.
 
 Weight sharing (default, as in the paper): one node per layer, trained on the inputs of all its
-grid positions pooled, then replicated. Without it every position learns its own node
+grid positions pooled, then replicated. With ``weight_sharing="rows"`` the nodes of one grid row
+share a node and every row learns its own: rows see different parts of the scene (sky, horizon,
+ground), while along the periodic width all positions see the same statistics once every
+rotation is trained on (a node trained on one column would see the patches of every column of
+its row), so this is what individually learned nodes converge to under simulated rotation, at
+the cost of one node per row. Without sharing (False) every position learns its own node
 (statistics memory: nodes x 2 x dim^2 x 8 bytes per layer, e.g. 2.4 GB for 490 layer-1 nodes
 of expanded dimension 560: use it with small layers).
 
 Time differences are formed per node position between consecutive frames of a sequence.
 
-Rotation shortcut (:meth:`HierarchicalSFA.fit_rotations`): with weight sharing and a rotation
+Rotation shortcut (:meth:`HierarchicalSFA.fit_rotations`): with weight sharing (per layer or
+per row) and a rotation
 step that is a multiple of layer 1's column stride ``s1``, rotating a panorama by one step moves
 every layer-1 patch onto another layer-1 patch. Run on the *dense* periodic grid (all
 ``n1 = W / s1`` column offsets, layer ``l`` reading layer ``l-1`` at column spacing
@@ -99,7 +105,8 @@ class HierarchicalSFA:
             layer must have a single node covering the whole grid below.
         n_outputs: number of slowest top-node outputs returned by :meth:`transform`.
         weight_sharing: one node per layer replicated over the grid (True, the paper's
-            choice), or one node per grid position (False).
+            choice), one node per grid row replicated along it (``"rows"``), or one node per
+            grid position (False).
         clip: clip intermediate node outputs to ``[-clip, clip]`` (None: no clipping).
         dtype: ``"float32"`` (default: twice as fast; covariances still summed in float64) or
             ``"float64"`` for the layer activations and per-chunk products.
@@ -131,7 +138,7 @@ class HierarchicalSFA:
         self,
         layers: Sequence[LayerSpec],
         n_outputs: int = 8,
-        weight_sharing: bool = True,
+        weight_sharing: bool | str = True,
         *,
         clip: float | None = 4.0,
         dtype: str = "float32",
@@ -169,8 +176,10 @@ class HierarchicalSFA:
             raise ValueError(
                 f"n_outputs={k} exceeds the top layer's output dimension {layers[-1].node_out_dim}"
             )
-        if not isinstance(self.weight_sharing, bool | np.bool_):
-            raise ValueError(f"weight_sharing must be a bool, got {self.weight_sharing!r}")
+        if not (isinstance(self.weight_sharing, bool | np.bool_) or self.weight_sharing == "rows"):
+            raise ValueError(
+                f"weight_sharing must be True, False or 'rows', got {self.weight_sharing!r}"
+            )
         if self.clip is not None and not (
             isinstance(self.clip, float | int) and not isinstance(self.clip, bool) and self.clip > 0
         ):
@@ -200,6 +209,13 @@ class HierarchicalSFA:
                 f"grid of the layer below ({grids[-2] if len(grids) > 1 else (height, width)})"
             )
         return grids
+
+    @property
+    def _sharing(self) -> str:
+        """``"layer"``, ``"rows"`` or ``"none"``."""
+        if isinstance(self.weight_sharing, str):
+            return "rows"
+        return "layer" if self.weight_sharing else "none"
 
     @property
     def _np_dtype(self) -> type[np.floating]:
@@ -296,7 +312,7 @@ class HierarchicalSFA:
         if n_loc * n_rot < 2:
             raise ValueError("need at least 2 training views (panoramas x rotations)")
         grids = self._grids(layers, h, window)
-        why_not = _shortcut_obstacle(layers, w, step, window, bool(self.weight_sharing))
+        why_not = _shortcut_obstacle(layers, w, step, window, self._sharing != "none")
         if method == "shortcut" and why_not:
             raise ValueError(f"the rotation shortcut does not apply: {why_not}")
         if method == "brute-force" or why_not:
@@ -340,7 +356,7 @@ class HierarchicalSFA:
         dtype = self._np_dtype
         workers = self._workers()
         tol = DEFAULT_RANK_TOL[self.dtype] if self.rank_tol is None else float(self.rank_tol)
-        shared = bool(self.weight_sharing)
+        sharing = self._sharing
         params: list[LayerParams] = []
         channels = 3
         n_layers = len(layers)
@@ -348,14 +364,14 @@ class HierarchicalSFA:
         cache_level = 0
         for li, (spec, grid) in enumerate(zip(layers, grids, strict=True)):
             f = spec.field[0] * spec.field[1] * channels
-            groups = 1 if shared else grid[0] * grid[1]
+            groups = {"layer": 1, "rows": grid[0], "none": grid[0] * grid[1]}[sharing]
             quadratic = spec.expansion == "quadratic"
             red_dim = min(spec.reduce_dim, f) if quadratic else min(spec.node_out_dim, f)
             ctx = f"layer {li + 1}"
             job = _Pass(
                 params=list(params),
                 clips=[self._layer_clip(i, n_layers) for i in range(li)],
-                shared=shared,
+                sharing=sharing,
                 dtype=dtype,
                 # the chunk size follows layer 1 throughout: float32 products are summed over
                 # a chunk, and larger chunks at the top (cached inputs would allow them) made
@@ -377,11 +393,11 @@ class HierarchicalSFA:
             moments = Moments(f, groups, center=li == 0)
             with self._bar(f"{desc} linear", source.n_blocks(job.batch)) as bar:
                 source.accumulate(job, spec, grid, _features_first, moments, bar)
-            reduce = _solve_layer(moments, red_dim, tol, f"{ctx} linear SFA", grid, shared)
+            reduce = _solve_layer(moments, red_dim, tol, f"{ctx} linear SFA", grid, sharing)
             expand = None
             if quadratic:
                 k = reduce.out_dim
-                fourth = shared and fourth_moments_pay_off()
+                fourth = sharing == "layer" and fourth_moments_pay_off()
                 moments = Moments(
                     n_quadratic_features(k), groups, center=False, quadratic=k if fourth else None
                 )
@@ -389,7 +405,7 @@ class HierarchicalSFA:
                     expanded = partial(_reduce_and_expand, reduce)
                     source.accumulate(job, spec, grid, expanded, moments, bar)
                 expand = _solve_layer(
-                    moments, spec.out_dim, tol, f"{ctx} expanded SFA", grid, shared
+                    moments, spec.out_dim, tol, f"{ctx} expanded SFA", grid, sharing
                 )
             params.append(LayerParams(spec, grid, reduce, expand))
             channels = params[-1].out_dim
@@ -483,7 +499,7 @@ class HierarchicalSFA:
         n_rot = w // step
         out = np.empty((n_loc, n_rot, self.n_outputs))
         specs = [p.spec for p in params]
-        if _shortcut_obstacle(specs, w, step, window, bool(self.weight_sharing)):
+        if _shortcut_obstacle(specs, w, step, window, self._sharing != "none"):
             k = np.arange(n_rot)
             for i in range(n_loc):
                 cols = (k[:, None] * step + np.arange(window)[None, :]) % w
@@ -495,7 +511,7 @@ class HierarchicalSFA:
         job = _Pass(
             params=params[:-1],
             clips=[self._layer_clip(i, n_layers) for i in range(n_layers - 1)],
-            shared=True,
+            sharing=self._sharing,
             dtype=self._np_dtype,
             batch=self._batch(self._item_bytes(specs, self.grids_, n_layers - 1, source.n1) / 2),
         )
@@ -569,7 +585,7 @@ class HierarchicalSFA:
                 for s in self.layers
             ],
             "n_outputs": int(self.n_outputs),
-            "weight_sharing": bool(self.weight_sharing),
+            "weight_sharing": "rows" if self._sharing == "rows" else bool(self.weight_sharing),
             "clip": None if self.clip is None else float(self.clip),
             "dtype": self.dtype,
         }
@@ -589,7 +605,7 @@ def _reduce_and_expand(reduce: Affine, x: NDArray[np.floating]) -> NDArray[np.fl
 
 
 def _solve_layer(
-    moments: Moments, dim: int, tol: float, context: str, grid: tuple[int, int], shared: bool
+    moments: Moments, dim: int, tol: float, context: str, grid: tuple[int, int], sharing: str
 ) -> Affine:
     """Solve every node's SFA; individual nodes are cut to the smallest available dimension."""
     sols = []
@@ -599,12 +615,17 @@ def _solve_layer(
             try:
                 sols.append(solve_sfa(moments.finish(g), dim, tol, context))
             except ValueError as err:
-                where = "" if shared else f" (node {divmod(g, grid[1])})"
+                names = {
+                    "layer": "",
+                    "rows": f" (row {g})",
+                    "none": f" (node {divmod(g, grid[1])})",
+                }
+                where = names[sharing]
                 raise ValueError(f"{err}{where}") from None
     k = min(s.projection.shape[1] for s in sols)
     dropped = max(s.n_dropped for s in sols)
     if dropped:
-        nodes = "" if shared else f" (most in one of the {len(sols)} nodes)"
+        nodes = "" if sharing == "layer" else f" (most in one of the {len(sols)} nodes)"
         cut = f"; only {k} outputs are available (asked for {dim})" if k < dim else ""
         warnings.warn(
             f"{context}: dropped {dropped} of {moments.n_features} input directions{nodes} "
@@ -613,7 +634,8 @@ def _solve_layer(
             RankDeficiencyWarning,
             stacklevel=4,
         )
-    return Affine.from_solutions(sols, k, None if shared else grid)
+    node_grid = {"layer": None, "rows": (grid[0], 1), "none": grid}[sharing]
+    return Affine.from_solutions(sols, k, node_grid)
 
 
 # -- data sources -----------------------------------------------------------------------------
@@ -628,7 +650,7 @@ class _Pass:
 
     params: list[LayerParams]
     clips: list[float | None]
-    shared: bool
+    sharing: str  # "layer", "rows" or "none" (see HierarchicalSFA._sharing)
     dtype: type[np.floating]
     batch: int
     workers: int = 1
@@ -713,7 +735,7 @@ class _Source:
         bar.update()
         # per-node statistics (no weight sharing) are too large to copy per chunk: those go
         # straight into ``moments``, one chunk at a time
-        separate = moments.n_groups == 1
+        separate = moments.n_groups * moments.n_features**2 * 16 <= _PARTIAL_BYTES
         workers = job.workers if separate else 1
 
         def task(chunk: tuple[int, int]) -> tuple[Moments, Any, Any]:
@@ -725,7 +747,7 @@ class _Source:
             if part is not moments:
                 moments.merge(part)
             if continues(chunk[0]):
-                moments.add_differences(_groups(head - tail, job.shared))
+                moments.add_differences(_groups(head - tail, job.sharing))
             tail = new_tail
             bar.update()
 
@@ -742,12 +764,20 @@ class _Source:
         raise NotImplementedError
 
 
-def _groups(x: NDArray[np.floating], shared: bool) -> NDArray[np.floating]:
-    """``(F, n, R, C)`` -> ``(1, F, n*R*C)`` (shared) or ``(R*C, F, n)`` (a group per node)."""
+def _groups(x: NDArray[np.floating], sharing: str) -> NDArray[np.floating]:
+    """``(F, n, R, C)`` -> ``(1, F, n*R*C)`` (one node per layer), ``(R, F, n*C)`` (one per
+    row) or ``(R*C, F, n)`` (one per position), samples of a group in (n, C) order."""
     f, n, r, c = x.shape
-    if shared:
+    if sharing == "layer":
         return x.reshape(1, f, n * r * c)
+    if sharing == "rows":
+        return x.transpose(2, 0, 1, 3).reshape(r, f, n * c)
     return x.reshape(f, n, r * c).transpose(2, 0, 1)
+
+
+def _samples_per_frame(sharing: str, r: int, c: int) -> int:
+    """How many samples of one group :func:`_groups` takes from each frame."""
+    return {"layer": r * c, "rows": c, "none": 1}[sharing]
 
 
 class _ViewSource(_Source):
@@ -762,7 +792,7 @@ class _ViewSource(_Source):
         return np.asarray(self.get(i0, i1)).astype(dtype)
 
     def accumulate(self, job, spec, grid, featurize, moments, bar) -> None:
-        shared = job.shared
+        sharing = job.sharing
         li = len(job.params)
 
         def work(chunk: tuple[int, int], into: Moments) -> tuple[Moments, Any, Any]:
@@ -770,12 +800,12 @@ class _ViewSource(_Source):
             x = featurize(self.node_inputs(li, spec, grid, self.layer_input(job, i0, i1)))
             _, _, r, c = x.shape  # (F, n, R, C)
             t = np.arange(i0, i1, dtype=np.float64)
-            into.add_samples(_groups(x, shared), np.repeat(t, r * c) if shared else t)
+            into.add_samples(_groups(x, sharing), np.repeat(t, _samples_per_frame(sharing, r, c)))
             inner = ~self.starts[i0 + 1 : i1]
             if inner.all():
-                into.add_differences(_groups(x[:, 1:] - x[:, :-1], shared))
+                into.add_differences(_groups(x[:, 1:] - x[:, :-1], sharing))
             elif inner.any():
-                into.add_differences(_groups(x[:, 1:][:, inner] - x[:, :-1][:, inner], shared))
+                into.add_differences(_groups(x[:, 1:][:, inner] - x[:, :-1][:, inner], sharing))
             return into, x[:, :1].copy(), x[:, -1:].copy()
 
         self._accumulate_chunks(job, moments, work, lambda i0: not self.starts[i0], bar)
@@ -822,8 +852,9 @@ class _DenseRotationSource(_Source):
         pairs = np.bincount(cols[:-1].ravel(), minlength=n1).astype(np.float64)
         first, last = cols[0], cols[-1]
         # linear SFA of layers 2, 3, ...: products from cross-correlations of the layer input
+        sharing = job.sharing
         plans = None
-        if featurize is _features_first and li > 0:
+        if featurize is _features_first and li > 0 and sharing == "layer":
             geometry = {
                 "rows_in": job.params[-1].grid[0],
                 "channels": job.params[-1].out_dim,
@@ -843,9 +874,9 @@ class _DenseRotationSource(_Source):
             f, n_l, r, _ = x.shape  # (F, L, R, n1)
             # view k = location * K + k is the time index of every node of that view
             base = (np.arange(l0, l1, dtype=np.float64) * n_rot)[:, None, None]
-            shape = (n_l, r, n1)
+            shape = (n_l, r if sharing == "layer" else 1, n1)  # the samples of one group
             into.add_samples(
-                x.reshape(1, f, -1),
+                _groups(x, sharing),
                 times=np.broadcast_to(base * w + tk, shape).ravel(),
                 weights=np.broadcast_to(w, shape).ravel(),
                 times_sq=np.broadcast_to(base**2 * w + 2 * base * tk + tk2, shape).ravel(),
@@ -856,7 +887,7 @@ class _DenseRotationSource(_Source):
                 d = np.empty_like(x)
                 np.subtract(x[..., m:], x[..., : n1 - m], out=d[..., : n1 - m])
                 np.subtract(x[..., :m], x[..., n1 - m :], out=d[..., n1 - m :])
-                into.add_differences(d.reshape(1, f, -1), np.broadcast_to(pairs, shape).ravel())
+                into.add_differences(_groups(d, sharing), np.broadcast_to(pairs, shape).ravel())
                 del d
             else:
                 # the node inputs of the difference field are the differences of node inputs
@@ -866,7 +897,7 @@ class _DenseRotationSource(_Source):
             # from the last view of one location to the first view of the next
             if n_l > 1:
                 d = _take_cols(x[:, 1:], first) - _take_cols(x[:, :-1], last)
-                into.add_differences(d.reshape(1, f, -1))
+                into.add_differences(_groups(d, sharing))
             # copies: a view would keep the whole chunk alive until it is merged
             return into, _take_cols(x[:, :1], first).copy(), _take_cols(x[:, -1:], last).copy()
 
@@ -893,6 +924,10 @@ def _take_cols(x: NDArray[np.floating], idx: NDArray[np.intp]) -> NDArray[np.flo
     return parts[0] if len(parts) == 1 else np.concatenate(parts, axis=-1)
 
 
+_PARTIAL_BYTES = 256 << 20
+"""Largest statistics (all groups) copied per chunk so that chunks run in parallel."""
+
+
 def _shortcut_obstacle(
     layers: Sequence[LayerSpec], width: int, step: int, window: int, weight_sharing: bool
 ) -> str:
@@ -917,8 +952,8 @@ def shortcut_applies(
     width: int,
     step: int = 5,
     window: int | None = None,
-    weight_sharing: bool = True,
+    weight_sharing: bool | str = True,
 ) -> bool:
     """Whether :meth:`HierarchicalSFA.fit_rotations` can use the dense rotation shortcut."""
     window = width if window is None else window
-    return not _shortcut_obstacle(layers, width, step, window, weight_sharing)
+    return not _shortcut_obstacle(layers, width, step, window, weight_sharing is not False)
