@@ -632,7 +632,7 @@ def _solve_layer(
             f"whose variance is below {tol:g} x the largest (constant or dependent inputs, or "
             f"too few training samples){cut}",
             RankDeficiencyWarning,
-            stacklevel=4,
+            stacklevel=5,  # the caller of fit or fit_rotations
         )
     node_grid = {"layer": None, "rows": (grid[0], 1), "none": grid}[sharing]
     return Affine.from_solutions(sols, k, node_grid)
