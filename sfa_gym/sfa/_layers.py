@@ -68,7 +68,7 @@ class Affine:
     """``y = x @ weight + bias`` per node, with the SFA delta values of its outputs.
 
     Shapes: shared ``weight (F, k)``, ``bias (k,)``, ``delta (k,)``; individual nodes have
-    leading ``(R, C)`` axes on all three.
+    leading ``(R, C)`` axes on all three, nodes shared along each row ``(R, 1)``.
     """
 
     weight: NDArray[np.float64]
@@ -109,6 +109,10 @@ class Affine:
     @property
     def shared(self) -> bool:
         return self.weight.ndim == 2
+
+    @property
+    def row_shared(self) -> bool:
+        return self.weight.ndim == 4 and self.weight.shape[1] == 1
 
     @property
     def out_dim(self) -> int:
@@ -155,6 +159,10 @@ class LayerParams:
         """Node outputs for node inputs ``x`` ``(N, R, C, F)`` -> ``(N, R, C, out_dim)``."""
         if self.reduce.shared and x.flags.c_contiguous:
             return self._shared_nodes(x, clip)
+        if self.reduce.row_shared:
+            rows = [self._shared_nodes(np.ascontiguousarray(x[:, r : r + 1]), clip, r) for r in
+                    range(x.shape[1])]  # fmt: skip
+            return np.concatenate(rows, axis=1)
         y = self.reduce.apply(x)
         if self.expand is not None:
             y = self.expand.apply(quadratic_expand(y, axis=0), features_first=True)
@@ -162,8 +170,11 @@ class LayerParams:
             np.clip(y, -clip, clip, out=y)
         return np.ascontiguousarray(np.moveaxis(y, 0, -1))
 
-    def _shared_nodes(self, x: NDArray[np.floating], clip: float | None) -> NDArray[np.floating]:
-        """:meth:`nodes` with weight sharing, in blocks of node inputs that stay in cache.
+    def _shared_nodes(
+        self, x: NDArray[np.floating], clip: float | None, row: int | None = None
+    ) -> NDArray[np.floating]:
+        """:meth:`nodes` with weight sharing (the node of grid row ``row`` for nodes shared
+        along rows), in blocks of node inputs that stay in cache.
 
         Per block: reduced outputs ``(k, B)``, their expansion ``(E, B)`` and the block's node
         outputs are computed while the block is in the CPU cache (about 1 MB of expansion),
@@ -172,12 +183,12 @@ class LayerParams:
         n, r, c, f = x.shape
         rows = x.reshape(-1, f)
         m = rows.shape[0]
-        wr, br = self.reduce.cast(x.dtype)
+        wr, br = _node(self.reduce.cast(x.dtype), row)
         if self.expand is None:
             out = rows @ wr
             out += br
         else:
-            we, be = self.expand.cast(x.dtype)
+            we, be = _node(self.expand.cast(x.dtype), row)
             k, o = wr.shape[1], we.shape[1]
             e = n_quadratic_features(k)
             block = max(1, min(m, _BLOCK_BYTES // (e * x.itemsize)))
@@ -224,6 +235,14 @@ class LayerParams:
     ) -> NDArray[np.floating]:
         """Node inputs ``(N, R, n_cols, F)`` (see :meth:`forward` for the arguments)."""
         return layer_patches(self.spec, self.grid, a, n_cols, col_stride, col_dilation)
+
+
+def _node(
+    weights: tuple[NDArray[np.floating], NDArray[np.floating]], row: int | None
+) -> tuple[NDArray[np.floating], NDArray[np.floating]]:
+    """``(weight, bias)`` of a shared node, or of row ``row``'s node (``(R, 1, ...)`` arrays)."""
+    w, b = weights
+    return (w, b) if row is None else (w[row, 0], b[row, 0])
 
 
 def layer_patches(

@@ -65,8 +65,10 @@ def benchmark_rotation_training(
     dtype: str = "float32",
     n_transform: int = 200,
     progress: bool = True,
+    weight_sharing: bool | str = True,
 ) -> dict[str, Any]:
-    """Train ``preset`` with :meth:`HierarchicalSFA.fit_rotations` on synthetic panoramas.
+    """Train ``preset`` with :meth:`HierarchicalSFA.fit_rotations` on synthetic panoramas
+    (``weight_sharing`` as for :class:`HierarchicalSFA`).
 
     Returns:
         dict with ``fit_seconds`` (wall), ``fit_cpu_seconds`` (this process, all threads),
@@ -78,7 +80,7 @@ def benchmark_rotation_training(
     height, width = PRESET_SHAPES[preset]
     layers = getattr(presets, preset)()
     pans = synthetic_panoramas(n_locations, height, width, seed)
-    model = HierarchicalSFA(layers, dtype=dtype, progress=progress)
+    model = HierarchicalSFA(layers, weight_sharing=weight_sharing, dtype=dtype, progress=progress)
     t0, c0 = time.perf_counter(), time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RankDeficiencyWarning)
@@ -94,6 +96,7 @@ def benchmark_rotation_training(
         "n_locations": n_locations,
         "n_views": int(model.n_training_views_),
         "step": step,
+        "weight_sharing": weight_sharing,
         "dtype": dtype,
         "fit_method": model.fit_method_,
         "fit_seconds": round(fit_s, 2),
@@ -148,6 +151,9 @@ def main(argv: list[str] | None = None) -> None:
         "--views", type=int, default=0, help="train on this many path frames instead (fit)"
     )
     parser.add_argument("--step", type=int, default=5)
+    parser.add_argument(
+        "--rows", action="store_true", help="one node per grid row (rotation training only)"
+    )
     parser.add_argument("--dtype", default="float32", choices=["float32", "float64"])
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-progress", action="store_true")
@@ -159,7 +165,7 @@ def main(argv: list[str] | None = None) -> None:
     else:
         result = benchmark_rotation_training(
             args.preset, args.locations, args.step, args.seed, args.dtype,
-            progress=not args.no_progress,
+            progress=not args.no_progress, weight_sharing="rows" if args.rows else True,
         )  # fmt: skip
     print(json.dumps(result, indent=2))
 
