@@ -179,6 +179,8 @@ def test_mdp_network_rejects_bad_architecture(mdp_bridge):
         mdp_bridge.build_mdp_network(layers, (H, W, 3), N_OUT)
     with pytest.raises(ValueError, match="n_outputs"):
         mdp_bridge.build_mdp_network(presets.tiny(H, W), (H, W, 3), 99)
+    with pytest.raises(ValueError, match="no layer whose nodes are shared along grid rows"):
+        mdp_bridge.build_mdp_network(presets.tiny(H, W), (H, W, 3), N_OUT, weight_sharing="rows")
 
 
 def fit_both(views, layers, mdp_bridge, sequence_ids=None, **kwargs):

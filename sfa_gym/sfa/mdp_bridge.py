@@ -265,6 +265,11 @@ def build_mdp_network(
     """
     from sfa_gym.sfa.spec import layer_grids
 
+    if not isinstance(weight_sharing, bool | np.bool_):
+        raise ValueError(
+            f"weight_sharing must be True or False for an MDP network, got {weight_sharing!r} "
+            "(MDP has no layer whose nodes are shared along grid rows)"
+        )
     mdp = import_mdp()
     h, w, c = (int(v) for v in input_shape)
     if c != 3:
