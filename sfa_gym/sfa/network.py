@@ -38,20 +38,19 @@ of expanded dimension 560: use it with small layers).
 
 Time differences are formed per node position between consecutive frames of a sequence.
 
-Rotation shortcut (:meth:`HierarchicalSFA.fit_rotations`): with weight sharing (per layer or
-per row) and a rotation
-step that is a multiple of layer 1's column stride ``s1``, rotating a panorama by one step moves
-every layer-1 patch onto another layer-1 patch. Run on the *dense* periodic grid (all
-``n1 = W / s1`` column offsets, layer ``l`` reading layer ``l-1`` at column spacing
-``P_{l-1}`` = product of the column strides of layers 2..l-1), each layer is executed once per
-location, and node ``j`` of layer ``l`` in view ``k`` is dense column ``(j P_l + k m) mod n1``
-(``m = step / s1``). The statistics over all views are then weighted statistics over the dense
-grid (the weight of a column = how many (view, node) pairs land on it), plus the differences
-between consecutive views (columns ``o -> o + m``) and across locations. This gives the same
-model as training on every rotated view (tested), at a fraction of the cost. On the dense grid
-the inputs of neighbouring nodes of layers 2, 3, ... overlap, and the second moments of their
-linear SFA are assembled from cross-correlations of the layer input, each product of two input
-values formed once (:mod:`sfa_gym.sfa._periodic`).
+Rotation shortcut (:meth:`HierarchicalSFA.fit_rotations`): with weight sharing (per layer or per
+row) and a rotation step that is a multiple of layer 1's column stride ``s1``, rotating a
+panorama by one step moves every layer-1 patch onto another layer-1 patch. Run on the *dense*
+periodic grid (all ``n1 = W / s1`` column offsets, layer ``l`` reading layer ``l-1`` at column
+spacing ``P_{l-1}`` = product of the column strides of layers 2..l-1), each layer is executed
+once per location, and node ``j`` of layer ``l`` in view ``k`` is dense column
+``(j P_l + k m) mod n1`` (``m = step / s1``). The statistics over all views are then weighted
+statistics over the dense grid (the weight of a column = how many (view, node) pairs land on
+it), plus the differences between consecutive views (columns ``o -> o + m``) and across
+locations. This gives the same model as training on every rotated view (tested), at a fraction
+of the cost. On the dense grid the inputs of neighbouring nodes of layers 2, 3, ... overlap, and
+the second moments of their linear SFA are assembled from cross-correlations of the layer input,
+each product of two input values formed once (:mod:`sfa_gym.sfa._periodic`).
 """
 
 from __future__ import annotations
