@@ -35,7 +35,7 @@ import numpy as np
 
 from sfa_gym.sfa._layers import Affine, LayerParams
 from sfa_gym.sfa.expansion import n_quadratic_features
-from sfa_gym.sfa.network import HierarchicalSFA
+from sfa_gym.sfa.network import HierarchicalSFA, node_grid
 from sfa_gym.sfa.spec import LayerSpec
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "save_model", "load_model"]
@@ -169,7 +169,7 @@ def load_model(
     params = []
     channels = 3
     for i, (spec, grid, (r, o)) in enumerate(zip(layers, grids, node_dims, strict=True), start=1):
-        lead = {"layer": (), "rows": (grid[0], 1), "none": tuple(grid)}[model._sharing]
+        lead = node_grid(model._sharing, grid) or ()
         f = spec.field[0] * spec.field[1] * channels
         stages = {"reduce": (f, r)}
         if spec.expansion == "quadratic":

@@ -363,7 +363,7 @@ class HierarchicalSFA:
         cache_level = 0
         for li, (spec, grid) in enumerate(zip(layers, grids, strict=True)):
             f = spec.field[0] * spec.field[1] * channels
-            groups = {"layer": 1, "rows": grid[0], "none": grid[0] * grid[1]}[sharing]
+            groups = int(np.prod(node_grid(sharing, grid) or (1, 1)))
             quadratic = spec.expansion == "quadratic"
             red_dim = min(spec.reduce_dim, f) if quadratic else min(spec.node_out_dim, f)
             ctx = f"layer {li + 1}"
@@ -633,8 +633,7 @@ def _solve_layer(
             RankDeficiencyWarning,
             stacklevel=5,  # the caller of fit or fit_rotations
         )
-    node_grid = {"layer": None, "rows": (grid[0], 1), "none": grid}[sharing]
-    return Affine.from_solutions(sols, k, node_grid)
+    return Affine.from_solutions(sols, k, node_grid(sharing, grid))
 
 
 # -- data sources -----------------------------------------------------------------------------
@@ -732,8 +731,8 @@ class _Source:
         chunks = self.chunks(job.batch)
         _, _, tail = work(chunks[0], moments)
         bar.update()
-        # per-node statistics (no weight sharing) are too large to copy per chunk: those go
-        # straight into ``moments``, one chunk at a time
+        # statistics of many nodes (e.g. no weight sharing) are too large to copy per chunk:
+        # those go straight into ``moments``, one chunk at a time
         separate = moments.n_groups * moments.n_features**2 * 16 <= _PARTIAL_BYTES
         workers = job.workers if separate else 1
 
@@ -774,9 +773,12 @@ def _groups(x: NDArray[np.floating], sharing: str) -> NDArray[np.floating]:
     return x.reshape(f, n, r * c).transpose(2, 0, 1)
 
 
-def _samples_per_frame(sharing: str, r: int, c: int) -> int:
-    """How many samples of one group :func:`_groups` takes from each frame."""
-    return {"layer": r * c, "rows": c, "none": 1}[sharing]
+def node_grid(sharing: str, grid: Sequence[int]) -> tuple[int, int] | None:
+    """The distinct nodes of a layer whose node grid is ``grid``: None for one node per layer
+    (``"layer"``), ``(R, 1)`` for one per row (``"rows"``), ``(R, C)`` for one per position
+    (``"none"``). These are the leading axes of the layer's :class:`Affine` arrays."""
+    rows, cols = int(grid[0]), int(grid[1])
+    return {"layer": None, "rows": (rows, 1), "none": (rows, cols)}[sharing]
 
 
 class _ViewSource(_Source):
@@ -799,7 +801,8 @@ class _ViewSource(_Source):
             x = featurize(self.node_inputs(li, spec, grid, self.layer_input(job, i0, i1)))
             _, _, r, c = x.shape  # (F, n, R, C)
             t = np.arange(i0, i1, dtype=np.float64)
-            into.add_samples(_groups(x, sharing), np.repeat(t, _samples_per_frame(sharing, r, c)))
+            # every group takes the same number of samples from each frame
+            into.add_samples(_groups(x, sharing), np.repeat(t, r * c // into.n_groups))
             inner = ~self.starts[i0 + 1 : i1]
             if inner.all():
                 into.add_differences(_groups(x[:, 1:] - x[:, :-1], sharing))
@@ -873,7 +876,7 @@ class _DenseRotationSource(_Source):
             f, n_l, r, _ = x.shape  # (F, L, R, n1)
             # view k = location * K + k is the time index of every node of that view
             base = (np.arange(l0, l1, dtype=np.float64) * n_rot)[:, None, None]
-            shape = (n_l, r if sharing == "layer" else 1, n1)  # the samples of one group
+            shape = (n_l, r // into.n_groups, n1)  # the samples of one group
             into.add_samples(
                 _groups(x, sharing),
                 times=np.broadcast_to(base * w + tk, shape).ravel(),
