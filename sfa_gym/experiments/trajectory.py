@@ -496,7 +496,7 @@ def _figures(
         patch = _exclude_patch(config.exclude)
         patch.set_facecolor("none")
         ax.add_patch(patch)
-    ax.set_title("test run: absolute error, SFA + linear")
+    ax.set_title(f"test run: absolute error, SFA + {FIGURE_REGRESSOR} regression")
     fig.savefig(out / "error_map.png", dpi=110)
 
     # firing maps over the training locations at the views nearest 0, 90, 180 and 270 degrees
