@@ -1,5 +1,5 @@
-"""Engine internals: moments of quadratic expansions and of periodic node inputs, BLAS threads,
-the ordered thread map."""
+"""Engine internals: moments of quadratic expansions, of consecutive frames and of periodic node
+inputs, BLAS threads, the ordered thread map."""
 
 from __future__ import annotations
 
@@ -11,7 +11,14 @@ import pytest
 
 from sfa_gym.sfa import _parallel
 from sfa_gym.sfa._layers import extract_patches
-from sfa_gym.sfa._moments import Moments, QuadraticGram, _pair_groups
+from sfa_gym.sfa._moments import (
+    Moments,
+    QuadraticGram,
+    _pair_groups,
+    difference_basis,
+    scratch_array,
+    sequence_block,
+)
 from sfa_gym.sfa._periodic import plan_weighted_gram, smallest_period
 from sfa_gym.sfa.expansion import n_quadratic_features, quadratic_expand
 
@@ -55,6 +62,83 @@ def test_quadratic_moments_equal_plain_moments_over_chunks():
         np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-11, atol=1e-11)
     with pytest.raises(ValueError, match="quadratic expansion"):
         Moments(e + 1, center=False, quadratic=k)
+
+
+@pytest.mark.parametrize("k", [1, 2, 5, 16])
+def test_difference_basis_diagonalises_the_path_laplacian(k):
+    basis, lam = difference_basis(k)
+    d = np.diff(np.eye(k), axis=0)  # (k - 1, k) first differences
+    np.testing.assert_allclose(basis.T @ basis, np.eye(k), atol=1e-12)
+    np.testing.assert_allclose(basis.T @ (d.T @ d) @ basis, np.diag(lam), atol=1e-12)
+    assert lam[0] == 0 and np.all(np.diff(lam) > 0)
+
+
+def test_sequence_blocks_keep_enough_samples_per_product():
+    assert sequence_block(56, 490) == 14  # 4 blocks, no frame left over
+    assert sequence_block(56, 42) == 8  # 7 blocks of 42 positions: 294 samples per product
+    assert sequence_block(56, 7) == 1  # too few samples per product: no blocks
+    assert sequence_block(1, 490) == 1
+
+
+@pytest.mark.parametrize("center", [True, False])
+@pytest.mark.parametrize("samples_first", [True, False])
+@pytest.mark.parametrize("n", [1, 2, 3, 17, 40, 61])
+def test_sequence_moments_equal_samples_plus_differences(center, samples_first, n):
+    """One Gram matrix per basis vector gives the same statistics as the samples and their
+    differences apart, for any number of frames (whole blocks, frames left over, no block)."""
+    rng = np.random.default_rng(n)
+    p, f = 40, 6
+    x = 50 + rng.standard_normal((n, p, f)).cumsum(axis=0)  # slow, far from zero mean
+    frames_last = x.transpose(2, 0, 1)  # (F, n, P)
+    want = Moments(f, center=center)
+    want.add_samples(frames_last.reshape(f, -1)[None], np.repeat(7.0 + np.arange(n), p))
+    want.add_differences(np.diff(frames_last, axis=1).reshape(f, -1)[None])
+    for overwrite in (False, True):
+        data = x.copy() if samples_first else np.ascontiguousarray(frames_last)
+        before = data.copy()
+        got = Moments(f, center=center)
+        got.add_sequence(data, 7.0, samples_first, overwrite=overwrite)
+        if not overwrite:
+            np.testing.assert_array_equal(data, before)
+        a, b = got.finish(), want.finish()
+        for name in ("mean", "cov", "dcov", "cov_xt"):
+            np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-9, atol=1e-9)
+        assert (a.n_samples, a.n_differences, a.var_t) == (b.n_samples, b.n_differences, b.var_t)
+
+
+def test_sequence_moments_in_float32_keep_slow_differences_precise():
+    """Slow features far from zero: the basis change works on differences from each block's
+    first frame, so the difference moments keep the precision of float32 differences: 2e-7
+    here, like the differences formed directly, where a basis change of the raw values errs by
+    3e-4 (cancellation)."""
+    rng = np.random.default_rng(3)
+    n, p, f = 64, 64, 4
+    x = (100 + 1e-3 * rng.standard_normal((n, p, f)).cumsum(axis=0)).astype(np.float32)
+    exact = Moments(f, center=False)
+    exact.add_sequence(x.astype(np.float64), 0.0, True)
+    fast = Moments(f, center=False)
+    fast.add_sequence(x, 0.0, True)
+    want, got = exact.finish().dcov, fast.finish().dcov
+    assert np.abs(got - want).max() <= 1e-5 * np.abs(want).max()
+
+
+def test_sequence_moments_reject_other_accumulators():
+    with pytest.raises(ValueError, match="one group"):
+        Moments(3, n_groups=2).add_sequence(np.zeros((4, 5, 3)), 0.0, True)
+    with pytest.raises(ValueError, match="expected 3 features"):
+        Moments(3).add_sequence(np.zeros((4, 5, 2)), 0.0, True)
+
+
+def test_scratch_arrays_are_reused_per_name_and_thread():
+    a = scratch_array("test", (4, 5), np.float32)
+    b = scratch_array("test", (2, 3), np.float32)
+    assert np.shares_memory(a, b)
+    assert not np.shares_memory(a, scratch_array("other", (4, 5), np.float32))
+    seen = []
+    thread = threading.Thread(target=lambda: seen.append(scratch_array("test", (4, 5), np.float32)))
+    thread.start()
+    thread.join()
+    assert not np.shares_memory(a, seen[0])
 
 
 def test_partial_statistics_merge_to_the_serial_result():

@@ -22,11 +22,25 @@ distinct fourth moment once (up to grouping, about half of the products of the s
 update) and assembles the full matrix at the end; whether that pays off depends on the BLAS
 kernels (:func:`fourth_moments_pay_off`). The time differences of ``q`` have no such symmetry;
 their moments are computed directly.
+
+Consecutive frames (:meth:`Moments.add_sequence`). Over a block of ``k`` consecutive frames
+``X = [x_0 .. x_{k-1}]`` the sample second moments are ``X X^T`` and those of the ``k - 1``
+differences are ``X L X^T``, ``L`` the Laplacian of the path ``0 - 1 - .. - (k-1)``. With
+``L = U diag(lam) U^T`` (``U`` orthonormal: the DCT-II basis, :func:`difference_basis`) and
+``z_i = X u_i``, both are sums of the same ``k`` rank-one terms: ``X X^T = sum_i z_i z_i^T`` and
+``X L X^T = sum_i lam_i z_i z_i^T``. One Gram matrix per ``i`` (summed over the blocks and over
+the samples of a frame) thus gives both statistics: the products over ``n`` frames drop from
+``2n`` (samples and differences apart) to ``n (1 + 1/k)`` (the differences between blocks are
+added directly). As ``u_i`` sums to zero for ``i > 0``, only the block means ``z_0`` carry the
+data's offset, so centring touches ``1/k`` of the data.
 """
 
 from __future__ import annotations
 
+import functools
+import threading
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -237,6 +251,78 @@ def quadratic_gram(k: int) -> QuadraticGram:
     return got
 
 
+@functools.cache
+def difference_basis(k: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Eigenvectors and eigenvalues of the Laplacian ``L`` of a path of ``k`` frames.
+
+    ``L = D^T D`` with ``D`` the ``(k - 1, k)`` first-difference matrix, so ``x^T L x`` is the sum
+    of squared differences of consecutive entries. Its orthonormal eigenvectors are the DCT-II
+    basis ``U[j, i] = c_i cos(pi i (j + 1/2) / k)`` with eigenvalues ``4 sin^2(pi i / (2 k))``;
+    ``i = 0`` is the constant vector (eigenvalue 0).
+
+    Returns:
+        ``U`` ``(k, k)`` (columns are the eigenvectors) and the eigenvalues ``(k,)``.
+    """
+    j = np.arange(k)[:, None] + 0.5
+    basis = np.sqrt(2.0 / k) * np.cos(np.pi * np.arange(k)[None, :] * j / k)
+    basis[:, 0] = np.sqrt(1.0 / k)
+    return basis, 4.0 * np.sin(np.pi * np.arange(k) / (2 * k)) ** 2
+
+
+_thread_scratch = threading.local()
+
+
+def scratch_array(name: str, shape: tuple[int, ...], dtype: Any) -> NDArray[Any]:
+    """A work array in this thread's reusable buffer ``name`` (contents undefined).
+
+    Training allocates, per chunk, arrays as large as the chunk's data (node inputs, their
+    expansion, their basis change); allocating them afresh for every chunk costs page faults,
+    measured here at a third of the time of filling them. One array per name and thread is
+    alive at a time: a new request for ``name`` reuses the memory of the previous one.
+    """
+    size, dtype = int(np.prod(shape)), np.dtype(dtype)
+    buffers = _thread_scratch.__dict__.setdefault("buffers", {})
+    buf = buffers.get(name)
+    if buf is None or buf.dtype != dtype or buf.size < size:
+        buf = buffers[name] = np.empty(size, dtype)
+    return buf[:size].reshape(shape)
+
+
+def release_scratch() -> None:
+    """Free the calling thread's work buffers (worker threads free theirs when they end)."""
+    _thread_scratch.__dict__.pop("buffers", None)
+
+
+@functools.cache
+def _anchored_basis(k: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`difference_basis` applied to ``[x_0, x_1 - x_0, .., x_{k-1} - x_0]``.
+
+    Returns ``V`` with ``V^T [x_0, x_1 - x_0, ..] = U^T [x_0, x_1, ..]``, and the eigenvalues.
+    Since ``u_i`` sums to zero for ``i > 0``, ``z_i = sum_{j > 0} u_i[j] (x_j - x_0)`` there;
+    ``z_0 = sqrt(k) x_0 + sum_{j > 0} (x_j - x_0) / sqrt(k)``.
+    """
+    basis, lam = difference_basis(k)
+    anchored = basis.copy()
+    anchored[0, 0] = np.sqrt(k)
+    anchored[0, 1:] = 0.0
+    return anchored, lam
+
+
+def sequence_block(n_frames: int, per_frame: int) -> int:
+    """Frames per block for :meth:`Moments.add_sequence` (1: no blocks, add samples directly).
+
+    Longer blocks leave fewer differences between blocks to add separately, but cost more in
+    the basis change (``k`` multiply-adds per value) and give each Gram matrix fewer samples
+    (``n_frames / k * per_frame``), which BLAS runs at a lower rate below a few hundred
+    (measured here: about 70 % of the large-product rate at 128). So: blocks of at most 16
+    frames, at least 256 samples per product, and ``n_frames`` split as evenly as that allows
+    (frames left over after the last whole block are added directly).
+    """
+    n_blocks = max(-(-n_frames // 16), -(-256 // max(per_frame, 1)))
+    k = n_frames // n_blocks
+    return k if k >= 2 else 1
+
+
 class Moments:
     """Accumulates SFA statistics for ``n_groups`` independent nodes of ``n_features`` inputs.
 
@@ -345,13 +431,7 @@ class Moments:
         w64 = np.ones(n) if weights is None else np.asarray(weights, dtype=np.float64)
         if times_sq is None:
             times_sq = times**2
-        if self.shift is None:
-            total = w64.sum()
-            if self.center:
-                self.shift = _weighted_sum(x, w64[:, None])[..., 0] / total
-            else:
-                self.shift = np.zeros((self.n_groups, self.n_features))
-            self.t_shift = float(times.sum() / total)
+        self._set_origin(x, times, w64)
         t0 = self.t_shift
         t_rel = times - w64 * t0  # per row: sum over its samples of (t - t0)
         xs = x - self.shift[:, :, None].astype(x.dtype) if self.center else x
@@ -369,6 +449,136 @@ class Moments:
         self.t_sum += float(t_rel.sum())
         self.t2_sum += float((times_sq - 2.0 * t0 * times + w64 * t0 * t0).sum())
         self.count += float(w64.sum())
+
+    def _set_origin(
+        self, x: NDArray[np.floating], times: NDArray[np.float64], w64: NDArray[np.float64]
+    ) -> None:
+        """Take the first samples' mean (if centring) and mean time as the origin, once."""
+        if self.shift is not None:
+            return
+        total = w64.sum()
+        if self.center:
+            self.shift = _weighted_sum(x, w64[:, None])[..., 0] / total
+        else:
+            self.shift = np.zeros((self.n_groups, self.n_features))
+        self.t_shift = float(times.sum() / total)
+
+    def add_sequence(
+        self,
+        x: NDArray[np.floating],
+        first_time: float,
+        samples_first: bool,
+        overwrite: bool = False,
+    ) -> None:
+        """Add ``n`` consecutive frames of one sequence: their samples and the ``n - 1`` time
+        differences between them (one group, unit weights).
+
+        Every frame holds ``P`` samples (one per node position) taken at the frame's time; a
+        difference pairs the same position in consecutive frames. The second moments of both
+        come from one Gram matrix per basis vector of :func:`difference_basis` (module
+        docstring), in blocks of :func:`sequence_block` frames.
+
+        Args:
+            x: ``(n, P, F)`` if ``samples_first`` (a C-contiguous array, or such a slice of
+                frames), else ``(F, n, P)`` with ``(n, P)`` contiguous.
+            first_time: time index of frame 0; frame ``j`` is at ``first_time + j``.
+            samples_first: the layout of ``x``.
+            overwrite: ``x`` may be changed in place (saves a copy of the data).
+        """
+        if self.n_groups != 1 or self._quad is not None:
+            raise ValueError("add_sequence needs one group and plain (not quadratic) moments")
+        n, p, f = x.shape if samples_first else (x.shape[1], x.shape[2], x.shape[0])
+        if f != self.n_features:
+            raise ValueError(f"expected {self.n_features} features, got {f}")
+        if n == 0:
+            return
+
+        def flat(a: NDArray[np.floating]) -> NDArray[np.floating]:  # -> (1, F, samples)
+            return a.reshape(-1, f).T[None] if samples_first else a.reshape(f, -1)[None]
+
+        times = np.repeat(first_time + np.arange(n, dtype=np.float64), p)
+        self._set_origin(flat(x), times, np.ones(len(times)))
+        k = sequence_block(n, p)
+        nb = n // k if k > 1 else 0
+        m = nb * k
+        # differences not inside a block: between blocks, and among the frames after the last
+        # whole block (taken first, as are the sums: the blocks may be overwritten below)
+        pairs = np.array([j for j in range(n - 1) if j >= m or (j + 1) % k == 0], dtype=np.intp)
+        if len(pairs):
+            if samples_first:
+                self.add_differences(flat(x[pairs + 1] - x[pairs]))
+            else:
+                self.add_differences(flat(x[:, pairs + 1] - x[:, pairs]))
+        if nb:
+            self._add_blocks(x, k, nb, p, first_time, samples_first, overwrite)
+        if m < n:
+            self.add_samples(flat(x[m:] if samples_first else x[:, m:]), times[m * p :])
+
+    def _add_blocks(
+        self,
+        x: NDArray[np.floating],
+        k: int,
+        nb: int,
+        p: int,
+        first_time: float,
+        samples_first: bool,
+        overwrite: bool,
+    ) -> None:
+        """Statistics of the first ``nb`` blocks of ``k`` frames of :meth:`add_sequence`'s data
+        (samples, first moments, and the differences inside each block)."""
+        assert self.shift is not None and self.t_shift is not None
+        f = self.n_features
+        basis, lam = difference_basis(k)
+        anchored, _ = _anchored_basis(k)
+        vt = anchored.T.astype(x.dtype)
+        # each block as its first frame and the other frames' differences from it: the z_i
+        # (i > 0) are then sums of small numbers, not small sums of large ones, and keep the
+        # precision of float32 differences of slowly changing features
+        m = nb * k
+        if samples_first:
+            rel = x[:m].reshape(nb, k, p * f)
+            rel = rel if overwrite else rel.copy()
+            np.subtract(rel[:, 1:], rel[:, :1], out=rel[:, 1:])
+            z = scratch_array("basis", (k, nb, p * f), x.dtype)
+            np.matmul(vt, rel, out=z.transpose(1, 0, 2))
+            zs = [z[i].reshape(nb * p, f) for i in range(k)]
+        else:
+            rel = x[:, :m].reshape(f, nb, k, p)
+            rel = rel if overwrite else rel.copy()
+            np.subtract(rel[:, :, 1:], rel[:, :, :1], out=rel[:, :, 1:])
+            z = scratch_array("basis", (f, k, nb, p), x.dtype)
+            np.matmul(vt, rel, out=z.transpose(0, 2, 1, 3))
+            zs = [z[:, i].reshape(f, nb * p).T for i in range(k)]
+        del rel
+        if self.center:  # only the block means carry the offset (u_i sums to 0 for i > 0)
+            zs[0] -= (np.sqrt(k) * self.shift[0]).astype(x.dtype)
+        # first moments: frame j of block b, x_bj = sum_i u_i[j] z_ib, is at time tau_b + j, so
+        # sum_j x_bj = sqrt(k) z_0b and sum_j x_bj (tau_b + j) = tau_b sqrt(k) z_0b + sum_i c_i z_ib
+        # with c_i = sum_j j u_i[j] (zero for even i > 0)
+        c = np.arange(k) @ basis
+        tau = np.repeat(first_time + k * np.arange(nb) - self.t_shift, p)
+        w0 = np.stack([np.full(nb * p, np.sqrt(k)), np.sqrt(k) * tau + c[0]]).astype(x.dtype)
+        sums = (w0 @ zs[0]).astype(np.float64)
+        for i in np.flatnonzero(np.abs(c[1:]) > 1e-9 * k) + 1:
+            sums[1] += c[i] * zs[i].sum(axis=0)
+        self.sum[0] += sums[0]
+        self.xt_sum[0] += sums[1]
+        t_rel = tau[:, None] + np.arange(k)[None, :]  # (nb * p, k): every sample's time
+        self.t_sum += float(t_rel.sum())
+        self.t2_sum += float((t_rel**2).sum())
+        self.count += float(m * p)
+        # second moments: one Gram matrix per basis vector, for both statistics
+        outer = zs[0].T @ zs[0]  # a.T @ a on one buffer: numpy calls syrk
+        douter = np.zeros_like(outer)
+        for i in range(1, k):
+            g = zs[i].T @ zs[i]
+            outer += g
+            g *= np.float32(lam[i]) if x.dtype == np.float32 else lam[i]
+            douter += g
+        del z, zs
+        self.outer[0] += outer
+        self.diff_outer[0] += douter
+        self.diff_count += float(nb * (k - 1) * p)
 
     def _add_quadratic(self, q: NDArray[np.floating], w: NDArray[np.float64] | None) -> None:
         assert self._quad is not None

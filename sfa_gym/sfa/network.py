@@ -67,7 +67,13 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from sfa_gym.sfa._layers import Affine, LayerParams, layer_patches
-from sfa_gym.sfa._moments import Moments, fourth_moments_pay_off
+from sfa_gym.sfa._moments import (
+    Moments,
+    fourth_moments_pay_off,
+    release_scratch,
+    scratch_array,
+    sequence_block,
+)
 from sfa_gym.sfa._parallel import n_workers, ordered_map, single_threaded_blas
 from sfa_gym.sfa._periodic import plan_weighted_gram
 from sfa_gym.sfa.expansion import n_quadratic_features, quadratic_expand
@@ -342,8 +348,11 @@ class HierarchicalSFA:
         input_shape: tuple[int, int, int],
         source: _Source,
     ) -> None:
-        with single_threaded_blas():
-            self._train_layers(layers, grids, input_shape, source)
+        try:
+            with single_threaded_blas():
+                self._train_layers(layers, grids, input_shape, source)
+        finally:
+            release_scratch()
 
     def _train_layers(
         self,
@@ -396,7 +405,10 @@ class HierarchicalSFA:
             expand = None
             if quadratic:
                 k = reduce.out_dim
-                fourth = sharing == "layer" and fourth_moments_pay_off()
+                # frames in time order get both Gram matrices from one set of products
+                # (Moments.add_sequence), which saves more than the fourth moments would
+                dense = source.dense_cols is not None
+                fourth = sharing == "layer" and dense and fourth_moments_pay_off()
                 moments = Moments(
                     n_quadratic_features(k), groups, center=False, quadratic=k if fourth else None
                 )
@@ -525,9 +537,12 @@ class HierarchicalSFA:
             x = source.node_inputs(n_layers - 1, top.spec, top.grid, a)[:, :, cols]
             out[l0:l1] = top.nodes(x, None)[:, 0, :, : self.n_outputs]
 
-        with single_threaded_blas():
-            for _ in ordered_map(run, source.chunks(batch), workers):
-                pass
+        try:
+            with single_threaded_blas():
+                for _ in ordered_map(run, source.chunks(batch), workers):
+                    pass
+        finally:
+            release_scratch()
         return out
 
     def forward(self, views: NDArray[np.uint8], n_layers: int | None = None) -> NDArray[Any]:
@@ -599,8 +614,11 @@ def _features_first(x: NDArray[np.floating]) -> NDArray[np.floating]:
 
 
 def _reduce_and_expand(reduce: Affine, x: NDArray[np.floating]) -> NDArray[np.floating]:
-    """Expanded linear-SFA outputs of node inputs ``(n, R, C, F)``: ``(E, n, R, C)``."""
-    return quadratic_expand(reduce.apply(x), axis=0)
+    """Expanded linear-SFA outputs of node inputs ``(n, R, C, F)``: ``(E, n, R, C)``, in this
+    thread's work buffer (training: valid until the next call in the same thread)."""
+    y = reduce.apply(x)
+    shape = (n_quadratic_features(y.shape[0]), *y.shape[1:])
+    return quadratic_expand(y, out=scratch_array("expansion", shape, y.dtype), axis=0)
 
 
 def _solve_layer(
@@ -678,8 +696,9 @@ class _Source:
     def node_inputs(
         self, index: int, spec: LayerSpec, grid: tuple[int, int], a: NDArray[np.floating]
     ) -> NDArray[np.floating]:
-        """Node input vectors ``(n, R, C, F)`` of layer ``index`` for its input ``a``."""
-        return layer_patches(spec, grid, a)
+        """Node input vectors ``(n, R, C, F)`` of layer ``index`` for its input ``a``, in this
+        thread's work buffer (valid until the next call in the same thread)."""
+        return layer_patches(spec, grid, a, reuse=True)
 
     def layer_input(self, job: _Pass, i0: int, i1: int) -> NDArray[np.floating]:
         """Input of the layer above ``job.params`` for items ``i0:i1``."""
@@ -798,8 +817,25 @@ class _ViewSource(_Source):
 
         def work(chunk: tuple[int, int], into: Moments) -> tuple[Moments, Any, Any]:
             i0, i1 = chunk
-            x = featurize(self.node_inputs(li, spec, grid, self.layer_input(job, i0, i1)))
-            _, _, r, c = x.shape  # (F, n, R, C)
+            a = self.layer_input(job, i0, i1)
+            x = featurize(self.node_inputs(li, spec, grid, a))
+            f, n, r, c = x.shape
+            if into.n_groups == 1 and into.quadratic is None and sequence_block(n, r * c) > 1:
+                # samples and differences of each run of one sequence from shared products
+                head, tail = x[:, :1].copy(), x[:, -1:].copy()
+                samples_first = np.moveaxis(x, 0, -1).flags.c_contiguous
+                if not (samples_first or x.flags.c_contiguous):
+                    x = np.moveaxis(np.ascontiguousarray(np.moveaxis(x, 0, -1)), -1, 0)
+                    samples_first = True
+                own = not np.may_share_memory(x, a)  # a fresh array, not the cached input
+                cuts = [0, *(np.flatnonzero(self.starts[i0 + 1 : i1]) + 1), n]
+                for s0, s1 in zip(cuts[:-1], cuts[1:], strict=True):
+                    if samples_first:
+                        run = np.moveaxis(x[:, s0:s1], 0, -1).reshape(s1 - s0, r * c, f)
+                    else:
+                        run = x[:, s0:s1].reshape(f, s1 - s0, r * c)
+                    into.add_sequence(run, float(i0 + s0), samples_first, overwrite=own)
+                return into, head, tail
             t = np.arange(i0, i1, dtype=np.float64)
             # every group takes the same number of samples from each frame
             into.add_samples(_groups(x, sharing), np.repeat(t, r * c // into.n_groups))
@@ -840,7 +876,7 @@ class _DenseRotationSource(_Source):
         return p.forward(a, clip, **self._geometry(index))
 
     def node_inputs(self, index, spec, grid, a):
-        return layer_patches(spec, grid, a, **self._geometry(index))
+        return layer_patches(spec, grid, a, reuse=True, **self._geometry(index))
 
     def accumulate(self, job, spec, grid, featurize, moments, bar) -> None:
         li = len(job.params)
