@@ -6,6 +6,14 @@ the env with ``--rendered``); per backend: training time per frame, peak memory,
 time per panorama, and the agreement of the eight slow features on held-out views (|corr| per
 output, and the canonical correlations of the two 8-d feature spaces).
 
+Part 1b, the paper's training data: ``--rotation-locations`` panoramas of 40 x 350 along a
+smooth path, each seen in all its 70 rotated views (5 px steps), in the paper's order (all views
+of one location, then the next). MDP has no rotation shortcut: it trains on the materialised
+views (``MDPHierarchicalSFA.fit_rotations``). Ours trains twice: with
+``HierarchicalSFA.fit_rotations`` (the rotation shortcut, the way this library trains on
+rotated views) and with ``fit`` on the same materialised views (the general path). Same
+measurements as part 1, per training view.
+
 Part 2, the paper's outdoor scale with our engine only: the ``paper_outdoor`` preset trained
 by ``HierarchicalSFA.fit_rotations`` on ``--locations`` panoramas of 60 x 600 (synthetic,
 seeded, or rendered) x 120 rotation windows (5 px steps): training time and peak memory.
@@ -18,7 +26,8 @@ the baseline). The machine may be shared: times are wall-clock and noisy.
 Usage (from the repository root)::
 
     .venv/bin/python eval/bench_sfa.py                                  # full: 3000 / 5900
-    .venv/bin/python eval/bench_sfa.py --frames 200 --test-frames 50 --locations 40  # smoke
+    .venv/bin/python eval/bench_sfa.py --frames 200 --test-frames 50 --locations 40 \
+        --rotation-locations 4  # smoke
 
 Writes ``eval/results/bench_sfa.json`` (``--json``) and prints a table.
 """
@@ -35,6 +44,7 @@ import sys
 import tempfile
 import time
 from dataclasses import asdict, dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +74,7 @@ class BenchConfig:
         frames: training views (40 x 350) for the comparison with MDP.
         test_frames: held-out views for inference timing and feature agreement.
         locations: panoramas (60 x 600) for the paper-scale run (120 rotations each).
+        rotation_locations: panoramas (40 x 350) for part 1b (70 rotated views each).
         rotation_step: rotation step in columns for the paper-scale run.
         seed: seed of the synthetic world and paths.
         rendered: render the views with the env instead of the synthetic world.
@@ -81,7 +92,8 @@ class BenchConfig:
             all cores). Our engine sets BLAS to one thread itself and runs its own threads; on a
             machine shared with other processes, multi-threaded BLAS is much slower than one
             thread (see ``sfa_gym.sfa._parallel``), so ``1`` gives MDP its best case there.
-        skip_mdp: run our engine only in part 1 (no ratios).
+        skip_mdp: run our engine only in parts 1 and 1b (no ratios).
+        skip_rotations: skip part 1b.
         skip_paper: skip part 2.
         json_path: where to write the results.
     """
@@ -89,6 +101,7 @@ class BenchConfig:
     frames: int = 3000
     test_frames: int = 500
     locations: int = 5900
+    rotation_locations: int = 50
     rotation_step: int = 5
     seed: int = 0
     rendered: bool = False
@@ -96,6 +109,7 @@ class BenchConfig:
     mdp_rank_method: str = "relative"
     mdp_blas_threads: int = 0
     skip_mdp: bool = False
+    skip_rotations: bool = False
     skip_paper: bool = False
     json_path: str = str(ROOT / "eval" / "results" / "bench_sfa.json")
 
@@ -254,6 +268,49 @@ def _inference(model: Any, views: NDArray[np.uint8]) -> tuple[NDArray[np.float64
     return y, batch_ms, single_ms
 
 
+def _model(kind: str, mdp_batch: int, mdp_rank_method: str) -> tuple[Any, dict[str, Any]]:
+    """The paper-sim network of one backend (``ours*`` or ``mdp*``) and its settings."""
+    from sfa_gym.sfa import HierarchicalSFA, presets
+
+    if kind.startswith("ours"):
+        from sfa_gym.sfa._parallel import n_workers
+
+        model = HierarchicalSFA(presets.paper_sim(), N_OUTPUTS, progress=False)
+        settings = {
+            "dtype": model.dtype,
+            "memory_mb": model.memory_mb,
+            "threads": n_workers(model.n_jobs),
+        }
+        return model, settings
+    from sfa_gym.sfa.mdp_bridge import MDPHierarchicalSFA
+
+    relative = mdp_rank_method == "relative"
+    model = MDPHierarchicalSFA(
+        presets.paper_sim(),
+        N_OUTPUTS,
+        batch_size=mdp_batch,
+        rank_deficit_method="none" if relative else mdp_rank_method,
+        rank_tol=_ours_rank_tol() if relative else None,
+        progress=False,
+    )
+    settings = {
+        "dtype": "float64",
+        "batch_size": mdp_batch,
+        "rank_deficit_method": model.rank_deficit_method,
+        "rank_tol": model.rank_tol,
+        "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS"),
+    }
+    return model, settings
+
+
+def _rotated_views(panoramas: NDArray[np.uint8], step: int) -> NDArray[np.uint8]:
+    """All rotated views of each panorama, location by location (the paper's order)."""
+    n_rot = panoramas.shape[2] // step
+    return np.stack([np.roll(panoramas, -k * step, axis=2) for k in range(n_rot)], axis=1).reshape(
+        -1, *panoramas.shape[1:]
+    )
+
+
 def _child(
     kind: str, data_dir: Path, mdp_batch: int, mdp_rank_method: str, step: int
 ) -> dict[str, Any]:
@@ -275,53 +332,41 @@ def _child(
             model, panoramas[: min(200, len(panoramas))]
         )
         result["delta_values"] = model.delta_values_.tolist()
+        result["peak_rss_mb"] = _rss_mb()
+        return result
+    test = np.load(data_dir / "test.npy")
+    model, result["settings"] = _model(kind, mdp_batch, mdp_rank_method)
+    if "-rot" in kind:  # part 1b: the rotated views of each location
+        panoramas = np.load(data_dir / "rot_panoramas.npy")
+        n_train = panoramas.shape[0] * (panoramas.shape[2] // step)
+        if kind == "ours-rot-views":
+            views = _rotated_views(panoramas, step)
+            fit = partial(model.fit, views)
+        else:
+            fit = partial(model.fit_rotations, panoramas, step=step)
     else:
         train = np.load(data_dir / "train.npy")
-        test = np.load(data_dir / "test.npy")
-        result["rss_after_data_mb"] = _rss_mb()
-        if kind == "ours":
-            from sfa_gym.sfa._parallel import n_workers
-
-            model = HierarchicalSFA(presets.paper_sim(), N_OUTPUTS, progress=False)
-            result["settings"] = {
-                "dtype": model.dtype,
-                "memory_mb": model.memory_mb,
-                "threads": n_workers(model.n_jobs),
-            }
-        else:
-            from sfa_gym.sfa.mdp_bridge import MDPHierarchicalSFA
-
-            relative = mdp_rank_method == "relative"
-            model = MDPHierarchicalSFA(
-                presets.paper_sim(),
-                N_OUTPUTS,
-                batch_size=mdp_batch,
-                rank_deficit_method="none" if relative else mdp_rank_method,
-                rank_tol=_ours_rank_tol() if relative else None,
-                progress=False,
-            )
-            result["settings"] = {
-                "dtype": "float64",
-                "batch_size": mdp_batch,
-                "rank_deficit_method": model.rank_deficit_method,
-                "rank_tol": model.rank_tol,
-                "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS"),
-            }
-        t0, c0 = time.perf_counter(), time.process_time()
-        model.fit(train)
-        result["fit_seconds"] = time.perf_counter() - t0
-        result["fit_cpu_seconds"] = time.process_time() - c0
-        result["fit_ms_per_frame"] = 1e3 * result["fit_seconds"] / len(train)
-        result["peak_rss_after_fit_mb"] = _rss_mb()
-        y, result["infer_ms_batch"], result["infer_ms_single"] = _inference(model, test)
-        np.save(data_dir / f"features_{kind}.npy", y)
-        n_layers = len(presets.paper_sim())
-        grids = {
-            f"layer{i}": np.asarray(model.forward(test[:LAYER_VIEWS], i), dtype=np.float32)
-            for i in range(1, n_layers + 1)
-        }
-        np.savez(data_dir / f"layers_{kind}.npz", **grids)
-        result["delta_values"] = np.asarray(model.delta_values_).tolist()
+        n_train = len(train)
+        fit = partial(model.fit, train)
+    result["rss_after_data_mb"] = _rss_mb()
+    t0, c0 = time.perf_counter(), time.process_time()
+    fit()
+    result["fit_seconds"] = time.perf_counter() - t0
+    result["fit_cpu_seconds"] = time.process_time() - c0
+    result["fit_ms_per_frame"] = 1e3 * result["fit_seconds"] / n_train
+    result["n_training_views"] = n_train
+    if hasattr(model, "fit_method_"):
+        result["fit_method"] = model.fit_method_
+    result["peak_rss_after_fit_mb"] = _rss_mb()
+    y, result["infer_ms_batch"], result["infer_ms_single"] = _inference(model, test)
+    np.save(data_dir / f"features_{kind}.npy", y)
+    n_layers = len(presets.paper_sim())
+    grids = {
+        f"layer{i}": np.asarray(model.forward(test[:LAYER_VIEWS], i), dtype=np.float32)
+        for i in range(1, n_layers + 1)
+    }
+    np.savez(data_dir / f"layers_{kind}.npz", **grids)
+    result["delta_values"] = np.asarray(model.delta_values_).tolist()
     result["peak_rss_mb"] = _rss_mb()
     return result
 
@@ -342,7 +387,7 @@ def _run_child(kind: str, data_dir: Path, cfg: BenchConfig) -> dict[str, Any]:
         str(cfg.rotation_step),
     ]
     env = dict(os.environ)
-    if kind == "mdp" and cfg.mdp_blas_threads:
+    if kind.startswith("mdp") and cfg.mdp_blas_threads:
         env["OPENBLAS_NUM_THREADS"] = str(cfg.mdp_blas_threads)
     print(f"[{kind}] running in a child process ...", flush=True)
     load_before = os.getloadavg()[0]
@@ -391,32 +436,70 @@ def layer_agreement(a_path: Path, b_path: Path) -> dict[str, dict[str, float]]:
     return out
 
 
+_ROWS = (
+    ("train ms / view", "fit_ms_per_frame", ".2f"),
+    ("train total s", "fit_seconds", ".1f"),
+    ("train CPU s (all threads)", "fit_cpu_seconds", ".1f"),
+    ("peak RSS during fit MB", "peak_rss_after_fit_mb", ".0f"),
+    ("RSS after data MB", "rss_after_data_mb", ".0f"),
+    ("infer ms / panorama (batch)", "infer_ms_batch", ".3f"),
+    ("infer ms (single panorama)", "infer_ms_single", ".2f"),
+)
+
+
+def _comparison(columns: list[tuple[str, dict[str, Any]]], mdp: dict[str, Any] | None) -> list[str]:
+    """Rows of :data:`_ROWS` for our runs ``columns`` and MDP's, with MDP / ours ratios."""
+    head = ["quantity", *(name for name, _ in columns)]
+    if mdp:
+        head += ["MDP", *(f"MDP / {name}" for name, _ in columns)]
+    rows = [head]
+    for label, key, fmt in _ROWS:
+        row = [label, *(format(r[key], fmt) for _, r in columns)]
+        if mdp:
+            row.append(format(mdp[key], fmt))
+            row += [f"{mdp[key] / r[key]:.1f}x" if r[key] > 0 else "-" for _, r in columns]
+        rows.append(row)
+    widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
+    return ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+
+
+def _agreement_lines(agreement: dict[str, Any], indent: str = "") -> list[str]:
+    lines = [
+        f"{indent}|corr| per output:    {agreement['abs_corr']}",
+        f"{indent}canonical corr:       {agreement['canonical_corr']}",
+    ]
+    for name, stats in agreement.get("per_layer", {}).items():
+        lines.append(
+            f"{indent}{name} channels |corr|: min {stats['min']}, median {stats['median']}"
+        )
+    return lines
+
+
 def _table(results: dict[str, Any]) -> str:
-    ours, mdp = results.get("ours"), results.get("mdp")
-    rows = [("quantity", "ours", "MDP", "MDP / ours")]
-
-    def row(name: str, key: str, fmt: str) -> None:
-        o = ours[key]
-        m = mdp[key] if mdp else None
-        ratio = f"{m / o:.1f}x" if m is not None and o > 0 else "-"
-        rows.append((name, format(o, fmt), "-" if m is None else format(m, fmt), ratio))
-
-    if ours:
-        row("train ms / frame", "fit_ms_per_frame", ".2f")
-        row("train total s", "fit_seconds", ".1f")
-        row("train CPU s (all threads)", "fit_cpu_seconds", ".1f")
-        row("peak RSS during fit MB", "peak_rss_after_fit_mb", ".0f")
-        row("RSS after data MB", "rss_after_data_mb", ".0f")
-        row("infer ms / panorama (batch)", "infer_ms_batch", ".3f")
-        row("infer ms (single panorama)", "infer_ms_single", ".2f")
-    widths = [max(len(r[i]) for r in rows) for i in range(4)]
-    lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
-    if "agreement" in results:
-        lines.append(f"|corr| per output:    {results['agreement']['abs_corr']}")
-        lines.append(f"canonical corr:       {results['agreement']['canonical_corr']}")
-        for name, stats in results["agreement"]["per_layer"].items():
-            lines.append(f"{name} channels |corr|: min {stats['min']}, median {stats['median']}")
+    lines: list[str] = []
+    if "ours" in results:
+        n = results["ours"]["n_training_views"]
+        lines.append(f"part 1: {n} views 40x350 along a smooth path (fit)")
+        lines += _comparison([("ours", results["ours"])], results.get("mdp"))
+        if "agreement" in results:
+            lines += _agreement_lines(results["agreement"])
+    rot = results.get("rotations")
+    if rot:
+        n = rot["ours"]["n_training_views"]
+        lines.append(
+            f"part 1b: {n} rotated views 40x350 ({results['config']['rotation_locations']} "
+            "locations x all rotations, the paper's order)"
+        )
+        columns = [("ours shortcut", rot["ours"]), ("ours views", rot["ours_views"])]
+        lines += _comparison(columns, rot.get("mdp"))
+        lines.append("shortcut vs the general path on the materialised views:")
+        lines += _agreement_lines(rot["agreement_views"], "  ")
+        if "agreement" in rot:
+            lines.append("shortcut vs MDP:")
+            lines += _agreement_lines(rot["agreement"], "  ")
     loads = {k: results[k]["load_average"] for k in ("ours", "mdp", "paper") if k in results}
+    if rot:
+        loads |= {f"rot {k}": r["load_average"] for k, r in rot.items() if "load_average" in r}
     if loads:
         lines.append(f"load average (1 min) before/after each run, {os.cpu_count()} CPUs: {loads}")
     paper = results.get("paper")
@@ -431,12 +514,21 @@ def _table(results: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _speedup_met(ours: dict[str, Any], mdp: dict[str, Any]) -> bool:
+    return mdp["fit_ms_per_frame"] / ours["fit_ms_per_frame"] >= TARGETS["speedup_vs_mdp_min"]
+
+
 def _checks(results: dict[str, Any]) -> dict[str, bool]:
     checks = {}
     ours, mdp, paper = results.get("ours"), results.get("mdp"), results.get("paper")
+    rot = results.get("rotations", {})
     if ours and mdp:
-        speedup = mdp["fit_ms_per_frame"] / ours["fit_ms_per_frame"]
-        checks["speedup_vs_mdp"] = speedup >= TARGETS["speedup_vs_mdp_min"]
+        checks["speedup_vs_mdp"] = _speedup_met(ours, mdp)
+    if "mdp" in rot:
+        checks["speedup_vs_mdp_rotations"] = _speedup_met(rot["ours"], rot["mdp"])
+        checks["speedup_vs_mdp_rotated_views_general_path"] = _speedup_met(
+            rot["ours_views"], rot["mdp"]
+        )
     if ours:
         checks["inference_ms"] = ours["infer_ms_batch"] <= TARGETS["inference_ms_per_panorama_max"]
     if paper:
@@ -445,6 +537,24 @@ def _checks(results: dict[str, Any]) -> dict[str, bool]:
             paper["peak_rss_after_fit_mb"] / 1024 <= TARGETS["paper_scale_peak_gb_max"]
         )
     return checks
+
+
+def _agreement(data_dir: Path, a: str, b: str) -> dict[str, Any]:
+    """Feature and per-layer agreement of the runs ``a`` and ``b`` on the held-out views."""
+    out: dict[str, Any] = feature_agreement(
+        np.load(data_dir / f"features_{a}.npy"), np.load(data_dir / f"features_{b}.npy")
+    )
+    out["per_layer"] = layer_agreement(data_dir / f"layers_{a}.npz", data_dir / f"layers_{b}.npz")
+    return out
+
+
+def _panoramas(poses: NDArray[np.floating], size: tuple[int, int], seed: int, cfg: BenchConfig,
+               progress: bool) -> NDArray[np.uint8]:  # fmt: skip
+    """Panoramas ``size = (height, width)`` at ``poses``: rendered by the env or synthetic."""
+    if cfg.rendered:
+        env_id = {(40, 350): "sfa_gym/OmniRover-v0", (60, 600): "sfa_gym/OmniRoverOutdoorCam-v0"}
+        return rendered_panoramas(env_id[size], poses, progress)
+    return synthetic_panoramas(poses, *size, seed, progress=progress)
 
 
 def run(cfg: BenchConfig, progress: bool = True) -> dict[str, Any]:
@@ -465,16 +575,10 @@ def run(cfg: BenchConfig, progress: bool = True) -> dict[str, Any]:
         data_dir = Path(tmp)
         t0 = time.perf_counter()
         poses = smooth_path(cfg.frames + cfg.test_frames, cfg.seed)
-        # test views: every other pose of a second path, a held-out stretch of the same world
+        # test views: a second path, a held-out stretch of the same world
         test_poses = smooth_path(cfg.test_frames, cfg.seed + 100)
-        if cfg.rendered:
-            views = rendered_panoramas(
-                "sfa_gym/OmniRover-v0", np.r_[poses[: cfg.frames], test_poses], progress
-            )
-        else:
-            views = synthetic_panoramas(
-                np.r_[poses[: cfg.frames], test_poses], 40, 350, cfg.seed, progress=progress
-            )
+        views = _panoramas(np.r_[poses[: cfg.frames], test_poses], (40, 350), cfg.seed, cfg,
+                           progress)  # fmt: skip
         np.save(data_dir / "train.npy", views[: cfg.frames])
         np.save(data_dir / "test.npy", views[cfg.frames :])
         results["data_seconds"] = time.perf_counter() - t0
@@ -482,18 +586,24 @@ def run(cfg: BenchConfig, progress: bool = True) -> dict[str, Any]:
         results["ours"] = _run_child("ours", data_dir, cfg)
         if not cfg.skip_mdp:
             results["mdp"] = _run_child("mdp", data_dir, cfg)
-            results["agreement"] = feature_agreement(
-                np.load(data_dir / "features_ours.npy"), np.load(data_dir / "features_mdp.npy")
-            )
-            results["agreement"]["per_layer"] = layer_agreement(
-                data_dir / "layers_ours.npz", data_dir / "layers_mdp.npz"
-            )
+            results["agreement"] = _agreement(data_dir, "ours", "mdp")
+        if not cfg.skip_rotations:
+            loc_poses = smooth_path(cfg.rotation_locations, cfg.seed + 300)
+            pan = _panoramas(loc_poses, (40, 350), cfg.seed + 300, cfg, progress)
+            np.save(data_dir / "rot_panoramas.npy", pan)
+            del pan
+            rot = {
+                "ours": _run_child("ours-rot", data_dir, cfg),
+                "ours_views": _run_child("ours-rot-views", data_dir, cfg),
+                "agreement_views": _agreement(data_dir, "ours-rot", "ours-rot-views"),
+            }
+            if not cfg.skip_mdp:
+                rot["mdp"] = _run_child("mdp-rot", data_dir, cfg)
+                rot["agreement"] = _agreement(data_dir, "ours-rot", "mdp-rot")
+            results["rotations"] = rot
         if not cfg.skip_paper:
             loc_poses = smooth_path(cfg.locations, cfg.seed + 200)
-            if cfg.rendered:
-                pan = rendered_panoramas("sfa_gym/OmniRoverOutdoorCam-v0", loc_poses, progress)
-            else:
-                pan = synthetic_panoramas(loc_poses, 60, 600, cfg.seed + 200, progress=progress)
+            pan = _panoramas(loc_poses, (60, 600), cfg.seed + 200, cfg, progress)
             np.save(data_dir / "paper_panoramas.npy", pan)
             del pan
             results["paper"] = _run_child("paper", data_dir, cfg)
@@ -507,6 +617,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--frames", type=int, default=d.frames, help="training views 40x350")
     parser.add_argument("--test-frames", type=int, default=d.test_frames, help="held-out views")
     parser.add_argument("--locations", type=int, default=d.locations, help="60x600 panoramas")
+    parser.add_argument(
+        "--rotation-locations",
+        type=int,
+        default=d.rotation_locations,
+        help="40x350 panoramas of part 1b (70 rotated views each)",
+    )
     parser.add_argument("--rotation-step", type=int, default=d.rotation_step, help="columns")
     parser.add_argument("--seed", type=int, default=d.seed)
     parser.add_argument("--rendered", action="store_true", help="render views with the env")
@@ -524,6 +640,7 @@ def main(argv: list[str] | None = None) -> int:
         help="OPENBLAS_NUM_THREADS for the MDP child (0: library default)",
     )
     parser.add_argument("--skip-mdp", action="store_true", help="no MDP run (no ratios)")
+    parser.add_argument("--skip-rotations", action="store_true", help="no rotated-views run")
     parser.add_argument("--skip-paper", action="store_true", help="no paper-scale run")
     parser.add_argument("--json", default=d.json_path, help="output JSON path")
     parser.add_argument("--no-progress", action="store_true")
@@ -545,7 +662,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.mdp_blas_threads < 0:
         parser.error(f"--mdp-blas-threads must be >= 0, got {args.mdp_blas_threads}")
-    for name in ("frames", "test_frames", "locations", "mdp_batch"):
+    for name in ("frames", "test_frames", "locations", "rotation_locations", "mdp_batch"):
         if getattr(args, name) < 2:
             parser.error(
                 f"--{name.replace('_', '-')} must be at least 2, got {getattr(args, name)}"
@@ -554,6 +671,7 @@ def main(argv: list[str] | None = None) -> int:
         frames=args.frames,
         test_frames=args.test_frames,
         locations=args.locations,
+        rotation_locations=args.rotation_locations,
         rotation_step=args.rotation_step,
         seed=args.seed,
         rendered=args.rendered,
@@ -561,6 +679,7 @@ def main(argv: list[str] | None = None) -> int:
         mdp_rank_method=args.mdp_rank_method,
         mdp_blas_threads=args.mdp_blas_threads,
         skip_mdp=args.skip_mdp,
+        skip_rotations=args.skip_rotations,
         skip_paper=args.skip_paper,
         json_path=args.json,
     )
