@@ -360,6 +360,9 @@ def _child(
     result["peak_rss_after_fit_mb"] = _rss_mb()
     y, result["infer_ms_batch"], result["infer_ms_single"] = _inference(model, test)
     np.save(data_dir / f"features_{kind}.npy", y)
+    if "-rot" in kind:  # also on every 7th training view
+        y_train = model.transform(_rotated_views(panoramas, step)[::7])
+        np.save(data_dir / f"train_features_{kind}.npy", y_train)
     n_layers = len(presets.paper_sim())
     grids = {
         f"layer{i}": np.asarray(model.forward(test[:LAYER_VIEWS], i), dtype=np.float32)
@@ -472,6 +475,9 @@ def _agreement_lines(agreement: dict[str, Any], indent: str = "") -> list[str]:
         lines.append(
             f"{indent}{name} channels |corr|: min {stats['min']}, median {stats['median']}"
         )
+    if "training_views" in agreement:
+        lines.append(f"{indent}on training views:")
+        lines += _agreement_lines(agreement["training_views"], indent + "  ")
     return lines
 
 
@@ -492,11 +498,13 @@ def _table(results: dict[str, Any]) -> str:
         )
         columns = [("ours shortcut", rot["ours"]), ("ours views", rot["ours_views"])]
         lines += _comparison(columns, rot.get("mdp"))
-        lines.append("shortcut vs the general path on the materialised views:")
+        lines.append("shortcut vs the general path on the materialised views (held-out views):")
         lines += _agreement_lines(rot["agreement_views"], "  ")
         if "agreement" in rot:
-            lines.append("shortcut vs MDP:")
+            lines.append("shortcut vs MDP (held-out views):")
             lines += _agreement_lines(rot["agreement"], "  ")
+            lines.append("general path vs MDP (held-out views):")
+            lines += _agreement_lines(rot["agreement_views_mdp"], "  ")
     loads = {k: results[k]["load_average"] for k in ("ours", "mdp", "paper") if k in results}
     if rot:
         loads |= {f"rot {k}": r["load_average"] for k, r in rot.items() if "load_average" in r}
@@ -540,11 +548,15 @@ def _checks(results: dict[str, Any]) -> dict[str, bool]:
 
 
 def _agreement(data_dir: Path, a: str, b: str) -> dict[str, Any]:
-    """Feature and per-layer agreement of the runs ``a`` and ``b`` on the held-out views."""
+    """Feature and per-layer agreement of the runs ``a`` and ``b`` on the held-out views, and
+    (part 1b) on training views."""
     out: dict[str, Any] = feature_agreement(
         np.load(data_dir / f"features_{a}.npy"), np.load(data_dir / f"features_{b}.npy")
     )
     out["per_layer"] = layer_agreement(data_dir / f"layers_{a}.npz", data_dir / f"layers_{b}.npz")
+    train_a, train_b = (data_dir / f"train_features_{k}.npy" for k in (a, b))
+    if train_a.exists() and train_b.exists():
+        out["training_views"] = feature_agreement(np.load(train_a), np.load(train_b))
     return out
 
 
@@ -600,6 +612,7 @@ def run(cfg: BenchConfig, progress: bool = True) -> dict[str, Any]:
             if not cfg.skip_mdp:
                 rot["mdp"] = _run_child("mdp-rot", data_dir, cfg)
                 rot["agreement"] = _agreement(data_dir, "ours-rot", "mdp-rot")
+                rot["agreement_views_mdp"] = _agreement(data_dir, "ours-rot-views", "mdp-rot")
             results["rotations"] = rot
         if not cfg.skip_paper:
             loc_poses = smooth_path(cfg.locations, cfg.seed + 200)

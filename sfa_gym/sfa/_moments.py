@@ -450,8 +450,20 @@ class Moments:
         self.t2_sum += float((times_sq - 2.0 * t0 * times + w64 * t0 * t0).sum())
         self.count += float(w64.sum())
 
+    def set_origin(self, x: NDArray[np.floating] | None, times: NDArray[np.floating]) -> None:
+        """Take the mean of unweighted samples ``x`` ``(G, F, n)`` (only read when centring)
+        and of their ``times`` as the origin of the statistics, before any samples are added
+        (otherwise the first samples added set it). Lets every chunk be processed apart."""
+        if self.shift is not None:
+            raise ValueError("the origin is set already")
+        times = np.asarray(times, dtype=np.float64)
+        self._set_origin(x, times, np.ones(len(times)))
+
     def _set_origin(
-        self, x: NDArray[np.floating], times: NDArray[np.float64], w64: NDArray[np.float64]
+        self,
+        x: NDArray[np.floating] | None,
+        times: NDArray[np.float64],
+        w64: NDArray[np.float64],
     ) -> None:
         """Take the first samples' mean (if centring) and mean time as the origin, once."""
         if self.shift is not None:
