@@ -16,7 +16,6 @@ from sfa_gym.sfa._moments import (
     QuadraticGram,
     _pair_groups,
     difference_basis,
-    scratch_array,
     sequence_block,
 )
 from sfa_gym.sfa._periodic import plan_weighted_gram, smallest_period
@@ -127,18 +126,6 @@ def test_sequence_moments_reject_other_accumulators():
         Moments(3, n_groups=2).add_sequence(np.zeros((4, 5, 3)), 0.0, True)
     with pytest.raises(ValueError, match="expected 3 features"):
         Moments(3).add_sequence(np.zeros((4, 5, 2)), 0.0, True)
-
-
-def test_scratch_arrays_are_reused_per_name_and_thread():
-    a = scratch_array("test", (4, 5), np.float32)
-    b = scratch_array("test", (2, 3), np.float32)
-    assert np.shares_memory(a, b)
-    assert not np.shares_memory(a, scratch_array("other", (4, 5), np.float32))
-    seen = []
-    thread = threading.Thread(target=lambda: seen.append(scratch_array("test", (4, 5), np.float32)))
-    thread.start()
-    thread.join()
-    assert not np.shares_memory(a, seen[0])
 
 
 def test_partial_statistics_merge_to_the_serial_result():

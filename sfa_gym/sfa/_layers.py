@@ -15,7 +15,6 @@ import numpy as np
 from numpy.lib.stride_tricks import as_strided
 from numpy.typing import NDArray
 
-from sfa_gym.sfa._moments import scratch_array
 from sfa_gym.sfa.expansion import n_quadratic_features, quadratic_expand
 from sfa_gym.sfa.linear import SFASolution
 from sfa_gym.sfa.spec import LayerSpec
@@ -30,7 +29,6 @@ def extract_patches(
     stride: tuple[int, int],
     n_cols: int,
     col_dilation: int = 1,
-    reuse: bool = False,
 ) -> NDArray[np.floating]:
     """Node input vectors of a layer.
 
@@ -42,8 +40,6 @@ def extract_patches(
             the input wrap around (a non-wrapping layer never reaches them).
         col_dilation: spacing of the field's columns (1 for a normal layer; the dense
             rotation grid uses the stride product of the layers below).
-        reuse: write into this thread's reusable work buffer (training: the result is dropped
-            before the next call, see :func:`~sfa_gym.sfa._moments.scratch_array`).
 
     Returns:
         ``(N, R, n_cols, fr * fc * D)`` C-contiguous, features in (row, col, channel) order.
@@ -64,10 +60,6 @@ def extract_patches(
         strides=(s_n, sr * s_r, sc * s_c, s_r, col_dilation * s_c, s_d),
         writeable=False,
     )
-    if reuse:
-        out = scratch_array("patches", view.shape, a.dtype)
-        np.copyto(out, view)
-        return out.reshape(n, rows, n_cols, fr * fc * d)
     return np.ascontiguousarray(view).reshape(n, rows, n_cols, fr * fc * d)
 
 
@@ -260,15 +252,12 @@ def layer_patches(
     n_cols: int | None = None,
     col_stride: int | None = None,
     col_dilation: int = 1,
-    reuse: bool = False,
 ) -> NDArray[np.floating]:
-    """Node inputs of a layer with spec ``spec`` and view grid ``grid`` (see ``forward``;
-    ``reuse``: see :func:`extract_patches`)."""
+    """Node inputs of a layer with spec ``spec`` and view grid ``grid`` (see ``forward``)."""
     return extract_patches(
         a,
         spec.field,
         (spec.stride[0], spec.stride[1] if col_stride is None else col_stride),
         grid[1] if n_cols is None else n_cols,
         col_dilation,
-        reuse,
     )

@@ -38,9 +38,7 @@ data's offset, so centring touches ``1/k`` of the data.
 from __future__ import annotations
 
 import functools
-import threading
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -267,30 +265,6 @@ def difference_basis(k: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     basis = np.sqrt(2.0 / k) * np.cos(np.pi * np.arange(k)[None, :] * j / k)
     basis[:, 0] = np.sqrt(1.0 / k)
     return basis, 4.0 * np.sin(np.pi * np.arange(k) / (2 * k)) ** 2
-
-
-_thread_scratch = threading.local()
-
-
-def scratch_array(name: str, shape: tuple[int, ...], dtype: Any) -> NDArray[Any]:
-    """A work array in this thread's reusable buffer ``name`` (contents undefined).
-
-    Training allocates, per chunk, arrays as large as the chunk's data (node inputs, their
-    expansion, their basis change); allocating them afresh for every chunk costs page faults,
-    measured here at a third of the time of filling them. One array per name and thread is
-    alive at a time: a new request for ``name`` reuses the memory of the previous one.
-    """
-    size, dtype = int(np.prod(shape)), np.dtype(dtype)
-    buffers = _thread_scratch.__dict__.setdefault("buffers", {})
-    buf = buffers.get(name)
-    if buf is None or buf.dtype != dtype or buf.size < size:
-        buf = buffers[name] = np.empty(size, dtype)
-    return buf[:size].reshape(shape)
-
-
-def release_scratch() -> None:
-    """Free the calling thread's work buffers (worker threads free theirs when they end)."""
-    _thread_scratch.__dict__.pop("buffers", None)
 
 
 @functools.cache
@@ -551,14 +525,14 @@ class Moments:
             rel = x[:m].reshape(nb, k, p * f)
             rel = rel if overwrite else rel.copy()
             np.subtract(rel[:, 1:], rel[:, :1], out=rel[:, 1:])
-            z = scratch_array("basis", (k, nb, p * f), x.dtype)
+            z = np.empty((k, nb, p * f), dtype=x.dtype)
             np.matmul(vt, rel, out=z.transpose(1, 0, 2))
             zs = [z[i].reshape(nb * p, f) for i in range(k)]
         else:
             rel = x[:, :m].reshape(f, nb, k, p)
             rel = rel if overwrite else rel.copy()
             np.subtract(rel[:, :, 1:], rel[:, :, :1], out=rel[:, :, 1:])
-            z = scratch_array("basis", (f, k, nb, p), x.dtype)
+            z = np.empty((f, k, nb, p), dtype=x.dtype)
             np.matmul(vt, rel, out=z.transpose(0, 2, 1, 3))
             zs = [z[:, i].reshape(f, nb * p).T for i in range(k)]
         del rel

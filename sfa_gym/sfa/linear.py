@@ -101,8 +101,7 @@ def solve_sfa(
 def _solve(
     stats: MomentStats, n_components: int | None, rank_tol: float, context: str, f: int
 ) -> SFASolution:
-    # all eigenpairs: the divide-and-conquer driver is about 20 % faster than the default
-    evals, evecs = scipy.linalg.eigh(stats.cov, driver="evd")
+    evals, evecs = scipy.linalg.eigh(stats.cov)
     top = float(evals[-1])
     scale = float(np.max(np.abs(stats.mean))) if f else 0.0
     if not np.isfinite(top) or top <= 0.0 or top <= (1e-10 * scale) ** 2:

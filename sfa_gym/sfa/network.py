@@ -70,13 +70,7 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from sfa_gym.sfa._layers import Affine, LayerParams, layer_patches
-from sfa_gym.sfa._moments import (
-    Moments,
-    fourth_moments_pay_off,
-    release_scratch,
-    scratch_array,
-    sequence_block,
-)
+from sfa_gym.sfa._moments import Moments, fourth_moments_pay_off, sequence_block
 from sfa_gym.sfa._parallel import n_workers, ordered_map, single_threaded_blas
 from sfa_gym.sfa._periodic import plan_weighted_gram
 from sfa_gym.sfa.expansion import n_quadratic_features, quadratic_expand
@@ -351,11 +345,8 @@ class HierarchicalSFA:
         input_shape: tuple[int, int, int],
         source: _Source,
     ) -> None:
-        try:
-            with single_threaded_blas():
-                self._train_layers(layers, grids, input_shape, source)
-        finally:
-            release_scratch()
+        with single_threaded_blas():
+            self._train_layers(layers, grids, input_shape, source)
 
     def _train_layers(
         self,
@@ -540,12 +531,9 @@ class HierarchicalSFA:
             x = source.node_inputs(n_layers - 1, top.spec, top.grid, a)[:, :, cols]
             out[l0:l1] = top.nodes(x, None)[:, 0, :, : self.n_outputs]
 
-        try:
-            with single_threaded_blas():
-                for _ in ordered_map(run, source.chunks(batch), workers):
-                    pass
-        finally:
-            release_scratch()
+        with single_threaded_blas():
+            for _ in ordered_map(run, source.chunks(batch), workers):
+                pass
         return out
 
     def forward(self, views: NDArray[np.uint8], n_layers: int | None = None) -> NDArray[Any]:
@@ -617,11 +605,8 @@ def _features_first(x: NDArray[np.floating]) -> NDArray[np.floating]:
 
 
 def _reduce_and_expand(reduce: Affine, x: NDArray[np.floating]) -> NDArray[np.floating]:
-    """Expanded linear-SFA outputs of node inputs ``(n, R, C, F)``: ``(E, n, R, C)``, in this
-    thread's work buffer (training: valid until the next call in the same thread)."""
-    y = reduce.apply(x)
-    shape = (n_quadratic_features(y.shape[0]), *y.shape[1:])
-    return quadratic_expand(y, out=scratch_array("expansion", shape, y.dtype), axis=0)
+    """Expanded linear-SFA outputs of node inputs ``(n, R, C, F)``: ``(E, n, R, C)``."""
+    return quadratic_expand(reduce.apply(x), axis=0)
 
 
 def _solve_layer(
@@ -699,9 +684,8 @@ class _Source:
     def node_inputs(
         self, index: int, spec: LayerSpec, grid: tuple[int, int], a: NDArray[np.floating]
     ) -> NDArray[np.floating]:
-        """Node input vectors ``(n, R, C, F)`` of layer ``index`` for its input ``a``, in this
-        thread's work buffer (valid until the next call in the same thread)."""
-        return layer_patches(spec, grid, a, reuse=True)
+        """Node input vectors ``(n, R, C, F)`` of layer ``index`` for its input ``a``."""
+        return layer_patches(spec, grid, a)
 
     def layer_input(self, job: _Pass, i0: int, i1: int) -> NDArray[np.floating]:
         """Input of the layer above ``job.params`` for items ``i0:i1``."""
@@ -829,8 +813,7 @@ class _ViewSource(_Source):
         def work(chunk: tuple[int, int], into: Moments) -> tuple[Moments, Any, Any]:
             i0, i1 = chunk
             # the difference into this chunk from the frame before it is formed here, by the
-            # worker, rather than after the merge (a serial step); the frame is featurized
-            # first, as the chunk's own features reuse the same work buffers
+            # worker, rather than after the merge (a serial step)
             before = features(i0 - 1, i0)[1].copy() if i0 and not self.starts[i0] else None
             a, x = features(i0, i1)
             f, n, r, c = x.shape
@@ -897,7 +880,7 @@ class _DenseRotationSource(_Source):
         return p.forward(a, clip, **self._geometry(index))
 
     def node_inputs(self, index, spec, grid, a):
-        return layer_patches(spec, grid, a, reuse=True, **self._geometry(index))
+        return layer_patches(spec, grid, a, **self._geometry(index))
 
     def accumulate(self, job, spec, grid, featurize, moments, bar) -> None:
         li = len(job.params)
