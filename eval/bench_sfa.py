@@ -305,10 +305,9 @@ def _model(kind: str, mdp_batch: int, mdp_rank_method: str) -> tuple[Any, dict[s
 
 def _rotated_views(panoramas: NDArray[np.uint8], step: int) -> NDArray[np.uint8]:
     """All rotated views of each panorama, location by location (the paper's order)."""
-    n_rot = panoramas.shape[2] // step
-    return np.stack([np.roll(panoramas, -k * step, axis=2) for k in range(n_rot)], axis=1).reshape(
-        -1, *panoramas.shape[1:]
-    )
+    from sfa_gym.rotation import rotated_views
+
+    return np.concatenate([rotated_views(p, step)[0] for p in panoramas])
 
 
 def _child(
@@ -336,6 +335,7 @@ def _child(
         return result
     test = np.load(data_dir / "test.npy")
     model, result["settings"] = _model(kind, mdp_batch, mdp_rank_method)
+    views = None  # the materialised rotated views of part 1b, made once where needed
     if "-rot" in kind:  # part 1b: the rotated views of each location
         panoramas = np.load(data_dir / "rot_panoramas.npy")
         n_train = panoramas.shape[0] * (panoramas.shape[2] // step)
@@ -361,7 +361,9 @@ def _child(
     y, result["infer_ms_batch"], result["infer_ms_single"] = _inference(model, test)
     np.save(data_dir / f"features_{kind}.npy", y)
     if "-rot" in kind:  # also on every 7th training view
-        y_train = model.transform(_rotated_views(panoramas, step)[::7])
+        if views is None:  # made after the fit, so that its memory is not counted there
+            views = _rotated_views(panoramas, step)
+        y_train = model.transform(views[::7])
         np.save(data_dir / f"train_features_{kind}.npy", y_train)
     n_layers = len(presets.paper_sim())
     grids = {
