@@ -45,20 +45,20 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
-from sfa_gym import gl  # noqa: E402
+from sfa_gym.sim import gl  # noqa: E402
 
 gl.configure()
 
 import cv2  # noqa: E402
 import mujoco  # noqa: E402
 
-from sfa_gym.camera import (  # noqa: E402
+from sfa_gym.sim.camera import PanoramaSpec  # noqa: E402
+from sfa_gym.sim.camera.renderer import (  # noqa: E402
     OmniCamera,
-    PanoramaSpec,
     _headlight_to_eye,
     _sample_nearest,
 )
-from sfa_gym.env import OmniRoverEnv  # noqa: E402
+from sfa_gym.sim.env import OmniRoverEnv  # noqa: E402
 
 TARGETS = {"ratio_max": 1.5, "steps_per_s_per_core_min": 400.0}
 # Panorama used as ground truth for the quality figure: 8 views, 4x supersampling.

@@ -282,7 +282,7 @@ def _model(kind: str, mdp_batch: int, mdp_rank_method: str) -> tuple[Any, dict[s
             "threads": n_workers(model.n_jobs),
         }
         return model, settings
-    from sfa_gym.sfa.mdp_bridge import MDPHierarchicalSFA
+    from sfa_gym.sfa.reference.mdp import MDPHierarchicalSFA
 
     relative = mdp_rank_method == "relative"
     model = MDPHierarchicalSFA(

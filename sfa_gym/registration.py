@@ -10,7 +10,7 @@ import gymnasium as gym
 
 ENV_IDS = ("sfa_gym/OmniRover-v0", "sfa_gym/OmniRoverOutdoorCam-v0")
 
-_ENTRY_POINT = "sfa_gym.env:OmniRoverEnv"
+_ENTRY_POINT = "sfa_gym.sim.env:OmniRoverEnv"
 # 100 s of driving at the default control period of 0.1 s.
 _MAX_EPISODE_STEPS = 1000
 

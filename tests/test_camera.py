@@ -13,21 +13,20 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sfa_gym import gl
+from sfa_gym.sim import gl
 
 gl.configure()
 
 import mujoco  # noqa: E402
 
-from sfa_gym.camera import (  # noqa: E402
-    OmniCamera,
+from sfa_gym.sim.camera.projection import (  # noqa: E402
     PanoramaSpec,
     _layout,
     _remap_tables,
-    _smooth_skyboxes,
     _view_fovy_deg,
     camera_mjcf,
 )
+from sfa_gym.sim.camera.renderer import OmniCamera, _smooth_skyboxes  # noqa: E402
 
 CAM_HEIGHT = 0.5
 # Small panoramas keep the tests fast; 144 = 4 sectors of 36 columns.

@@ -7,7 +7,7 @@ import json
 import numpy as np
 
 from sfa_gym.cli import main
-from sfa_gym.runs import load_run
+from sfa_gym.recording.runfile import load_run
 from sfa_gym.sfa import HierarchicalSFA
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import sfa_gym  # noqa: F401  (registers the envs)
-from sfa_gym.drivers import (
+from sfa_gym.recording.drivers import (
     GridPositions,
     LawnMowerDriver,
     LoopDriver,
@@ -274,9 +274,9 @@ def test_random_walk_turns_back_before_the_real_wall(env):
 def test_docstring_examples():
     import doctest
 
-    import sfa_gym.drivers
+    import sfa_gym.recording.drivers
 
-    failures, attempted = doctest.testmod(sfa_gym.drivers, verbose=False)
+    failures, attempted = doctest.testmod(sfa_gym.recording.drivers, verbose=False)
     assert attempted >= 1 and failures == 0
 
 

@@ -13,10 +13,10 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import sfa_gym  # noqa: F401  (registers the ids)
-from sfa_gym.camera import PanoramaSpec
-from sfa_gym.env import OmniRoverEnv
 from sfa_gym.registration import ENV_IDS
-from sfa_gym.worlds import ObstaclesSpec, load_world_spec
+from sfa_gym.sim.camera import PanoramaSpec
+from sfa_gym.sim.env import OmniRoverEnv
+from sfa_gym.sim.worlds import ObstaclesSpec, load_world_spec
 
 # Small panoramas keep the physics and pose tests fast; the registered ids are checked in full.
 SMALL = PanoramaSpec(width=120, height=16)

@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sfa_gym.camera import PanoramaSpec
-from sfa_gym.env import OmniRoverEnv
 from sfa_gym.localization import eta, random_split_mae
 from sfa_gym.localization.methods import load_method_file
 from sfa_gym.localization.plots import estimate_vs_truth, firing_maps
 from sfa_gym.localization.regression import LinearRegressor
 from sfa_gym.rotation import rotated_views
+from sfa_gym.sim.camera import PanoramaSpec
+from sfa_gym.sim.env import OmniRoverEnv
 
 BASELINES = Path(__file__).resolve().parents[1] / "baselines"
 

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sfa_gym import gl
-from sfa_gym.ordering import grid_order, hilbert_index
+from sfa_gym.recording.ordering import grid_order, hilbert_index
+from sfa_gym.sim import gl
 
 ROOT = Path(__file__).resolve().parents[1]
 

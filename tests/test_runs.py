@@ -10,14 +10,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from sfa_gym.drivers import GridPositions, LawnMowerDriver, RandomWalkDriver
-from sfa_gym.runs import (
-    ReplayMismatchError,
-    RunFormatError,
-    RunMismatchError,
-    load_run,
-    record,
-)
+from sfa_gym.recording.drivers import GridPositions, LawnMowerDriver, RandomWalkDriver
+from sfa_gym.recording.recorder import ReplayMismatchError, RunMismatchError, record
+from sfa_gym.recording.runfile import RunFormatError, load_run
 
 
 class TinyRover(gym.Env):

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
-from sfa_gym.sfa.benchmark import synthetic_panoramas
 from sfa_gym.sfa.io import FORMAT, FORMAT_VERSION
+from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 
 @pytest.fixture(scope="module")

@@ -87,7 +87,7 @@ def assert_separated(delta: np.ndarray, min_ratio: float = 1.01) -> None:
 
 @pytest.fixture(scope="module")
 def mdp_bridge():
-    from sfa_gym.sfa import mdp_bridge
+    from sfa_gym.sfa.reference import mdp as mdp_bridge
 
     mdp_bridge.import_mdp()
     return mdp_bridge

@@ -18,7 +18,7 @@ from sfa_gym.sfa import (
     shortcut_applies,
 )
 from sfa_gym.sfa._layers import Affine, LayerParams
-from sfa_gym.sfa.benchmark import synthetic_panoramas
+from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 H, W = 10, 40
 

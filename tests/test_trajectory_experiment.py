@@ -17,7 +17,7 @@ import pytest
 from sfa_gym.experiments import TrajectoryExperiment, format_table, run_trajectory_experiment
 from sfa_gym.experiments.trajectory import eval_windows, in_rectangle
 from sfa_gym.localization.methods import load_method_file
-from sfa_gym.runs import load_run
+from sfa_gym.recording.runfile import load_run
 
 BASELINES = Path(__file__).resolve().parents[1] / "baselines"
 

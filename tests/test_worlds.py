@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from sfa_gym import gl
-from sfa_gym.worlds import (
+from sfa_gym.sim import gl
+from sfa_gym.sim.worlds import (
     ObstaclesSpec,
     available_worlds,
     build_world,
@@ -30,7 +30,7 @@ def spec():
 
 @pytest.fixture(scope="module")
 def spec_dict():
-    from sfa_gym.data import envs_dir
+    from sfa_gym.sim.worlds.data import envs_dir
 
     return json.loads((envs_dir() / "paper_sim.json").read_text())
 

@@ -14,10 +14,10 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import sfa_gym  # noqa: F401  (registers the env ids)
 import sfa_gym.wrappers
-from sfa_gym.camera import PanoramaSpec
 from sfa_gym.localization.methods import load_method_file
 from sfa_gym.rotation import rotated_views
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
+from sfa_gym.sim.camera import PanoramaSpec
 from sfa_gym.wrappers import SlowFeatureObservation
 
 BASELINES = Path(__file__).resolve().parents[1] / "baselines"

@@ -120,9 +120,12 @@ def select_positions(config: GridExperiment, n_positions: int) -> tuple[NDArray,
 
 
 def render_grid(config: GridExperiment, out_dir: Path, progress: bool = True):
-    """Record (or resume) the run of all grid positions; returns the :class:`~sfa_gym.runs.Run`."""
-    from sfa_gym.drivers import GridPositions
-    from sfa_gym.runs import record
+    """Record (or resume) the run of all grid positions.
+
+    Returns the :class:`~sfa_gym.recording.runfile.Run`.
+    """
+    from sfa_gym.recording.drivers import GridPositions
+    from sfa_gym.recording.recorder import record
 
     driver = GridPositions(n=config.grid, seed=config.seed, order=config.order)
     return record(

@@ -245,7 +245,7 @@ def window_features(
 
 
 def _drivers(config: TrajectoryExperiment) -> tuple[Any, Any]:
-    from sfa_gym.drivers import LawnMowerDriver, LoopDriver, RandomWalkDriver
+    from sfa_gym.recording.drivers import LawnMowerDriver, LoopDriver, RandomWalkDriver
 
     train = LawnMowerDriver(
         spacing=config.spacing,
@@ -271,11 +271,11 @@ def _drivers(config: TrajectoryExperiment) -> tuple[Any, Any]:
 
 def record_runs(config: TrajectoryExperiment, out_dir: Path, progress: bool = True):
     """Record (or resume) ``train.run`` and ``test.run`` in ``out_dir``; returns both runs."""
-    from sfa_gym.runs import record
+    from sfa_gym.recording.recorder import record
 
     env_kwargs: dict[str, Any] = {"world_seed": config.world_seed}
     if config.panorama is not None:
-        from sfa_gym.camera import PanoramaSpec
+        from sfa_gym.sim.camera import PanoramaSpec
 
         height, width = config.panorama
         env_kwargs["panorama"] = PanoramaSpec(width=int(width), height=int(height))

@@ -22,7 +22,7 @@ DRIVERS = ("lawnmower", "loop", "randomwalk", "grid")
 
 
 def _make_driver(name: str, args: argparse.Namespace) -> Any:
-    from sfa_gym import drivers
+    from sfa_gym.recording import drivers
 
     if name == "lawnmower":
         return drivers.LawnMowerDriver(spacing=args.spacing, spin=args.spin)
@@ -58,7 +58,7 @@ def cmd_record(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
 
     from sfa_gym.localization.plots import trajectory
-    from sfa_gym.runs import record
+    from sfa_gym.recording.recorder import record
 
     out = Path(args.out)
     run = record(

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym._types import Pose
-from sfa_gym.ordering import grid_order
+from sfa_gym.recording.ordering import grid_order
 
 __all__ = [
     "Bounds",

@@ -4,8 +4,8 @@ The panoramas are smooth random images (periodic in width) that morph slowly fro
 to the next along a path, so that consecutive training locations look alike as on a real run.
 Use it to check that a preset trains within budget on a given machine::
 
-    python -m sfa_gym.sfa.benchmark --preset paper_outdoor --locations 5900   # fit_rotations
-    python -m sfa_gym.sfa.benchmark --preset paper_sim --views 2000           # fit on frames
+    python eval/bench_sfa_training.py --preset paper_outdoor --locations 5900   # fit_rotations
+    python eval/bench_sfa_training.py --preset paper_sim --views 2000           # fit on frames
 
 The numbers depend on the machine and its load; BLAS threads follow ``OPENBLAS_NUM_THREADS``.
 """
@@ -20,41 +20,15 @@ import warnings
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
-from scipy.ndimage import gaussian_filter
 
 from sfa_gym.sfa import presets
 from sfa_gym.sfa.linear import RankDeficiencyWarning
 from sfa_gym.sfa.network import HierarchicalSFA
+from sfa_gym.sfa.synthetic import synthetic_panoramas
 
-__all__ = ["synthetic_panoramas", "benchmark_rotation_training", "benchmark_view_training"]
+__all__ = ["benchmark_rotation_training", "benchmark_view_training"]
 
 PRESET_SHAPES = {"paper_sim": (40, 350), "paper_outdoor": (60, 600)}
-
-
-def synthetic_panoramas(
-    n_locations: int, height: int, width: int, seed: int = 0, n_keyframes: int = 64
-) -> NDArray[np.uint8]:
-    """``(n_locations, height, width, 3)`` uint8 panoramas morphing smoothly along a path.
-
-    ``n_keyframes`` random smooth images (Gaussian-filtered noise, periodic in width) are placed
-    evenly along the path; each location blends its two neighbouring keyframes linearly.
-    """
-    rng = np.random.default_rng(seed)
-    n_key = max(2, min(n_keyframes, n_locations))
-    keys = np.empty((n_key, height, width, 3), dtype=np.float32)
-    for i in range(n_key):
-        z = gaussian_filter(
-            rng.standard_normal((height, width, 3)), (height / 20, width / 60, 0), mode="wrap"
-        )
-        keys[i] = z / z.std() * 45.0 + 128.0
-    out = np.empty((n_locations, height, width, 3), dtype=np.uint8)
-    pos = np.linspace(0, n_key - 1, n_locations)
-    for i, p in enumerate(pos):
-        k0 = min(int(p), n_key - 2)
-        frac = np.float32(p - k0)
-        out[i] = np.clip((1 - frac) * keys[k0] + frac * keys[k0 + 1], 0, 255)
-    return out
 
 
 def benchmark_rotation_training(

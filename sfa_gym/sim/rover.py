@@ -3,7 +3,7 @@
 The chassis is a free body; four wheels on hinge joints are driven by velocity servos and
 touch the ground through real contacts, so the rover moves by physics: it accelerates,
 slips and bumps into walls. A mast in the middle of the chassis carries the omnidirectional
-camera (the ``<camera>`` elements of :func:`sfa_gym.camera.camera_mjcf`) at
+camera (the ``<camera>`` elements of :func:`sfa_gym.sim.camera.camera_mjcf`) at
 ``camera_height`` above the ground; the camera body's x axis is the rover's heading.
 
 Body frame: x forward, y to the left, z up; the body origin lies on the wheel axles,
@@ -27,8 +27,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
-from sfa_gym.camera import PanoramaSpec, camera_mjcf
-from sfa_gym.worlds import MJCFParts
+from sfa_gym.sim.camera import PanoramaSpec, camera_mjcf
+from sfa_gym.sim.worlds import MJCFParts
 
 WHEELS = ("fl", "rl", "fr", "rr")
 """Wheel names in actuator order: front-left, rear-left, front-right, rear-right."""
@@ -100,7 +100,7 @@ class RoverSpec:
 
 def rover_mjcf(spec: RoverSpec, panorama: PanoramaSpec, name: str = "rover") -> MJCFParts:
     """MJCF of the rover standing at the origin, to put into a world with
-    :func:`sfa_gym.worlds.build_world`.
+    :func:`sfa_gym.sim.worlds.build_world`.
 
     Names: body ``name`` with free joint ``f"{name}_root"``; wheel joints and actuators
     ``f"{name}_wheel_{w}"`` and ``f"{name}_drive_{w}"`` for ``w`` in :data:`WHEELS`; camera

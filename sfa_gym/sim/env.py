@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym import gl
+from sfa_gym.sim import gl
 
 gl.configure()
 
@@ -18,9 +18,10 @@ import gymnasium as gym  # noqa: E402
 import mujoco  # noqa: E402  (MUJOCO_GL must be set first)
 from gymnasium import spaces  # noqa: E402
 
-from sfa_gym.camera import OmniCamera, PanoramaSpec  # noqa: E402
-from sfa_gym.rover import WHEELS, RoverSpec, rover_mjcf, yaw_of_quat  # noqa: E402
-from sfa_gym.worlds import WorldSpec, build_world, load_world_spec  # noqa: E402
+from sfa_gym.sim.camera import PanoramaSpec  # noqa: E402
+from sfa_gym.sim.camera.renderer import OmniCamera  # noqa: E402
+from sfa_gym.sim.rover import WHEELS, RoverSpec, rover_mjcf, yaw_of_quat  # noqa: E402
+from sfa_gym.sim.worlds import WorldSpec, build_world, load_world_spec  # noqa: E402
 
 # A process forked after it used OpenGL inherits a GL driver whose worker threads did not
 # survive the fork: rendering in the child hangs. Detect it and fail with advice instead.

@@ -1,0 +1,24 @@
+"""Worlds as data: JSON specs (:mod:`.spec`) built into MJCF from a world seed (:mod:`.build`)."""
+
+from __future__ import annotations
+
+from sfa_gym.sim.worlds.build import MJCFParts, World, WorldLayout, build_world
+from sfa_gym.sim.worlds.spec import (
+    ObstaclesSpec,
+    WorldSpec,
+    available_worlds,
+    load_world_spec,
+    world_spec_from_dict,
+)
+
+__all__ = [
+    "MJCFParts",
+    "ObstaclesSpec",
+    "World",
+    "WorldLayout",
+    "WorldSpec",
+    "available_worlds",
+    "build_world",
+    "load_world_spec",
+    "world_spec_from_dict",
+]

@@ -1,0 +1,356 @@
+"""Worlds as data: a JSON world spec plus a world seed -> a MuJoCo model (MJCF text).
+
+A world is a walled, flat arena that the rover drives in, surrounded by landmarks (trees,
+coloured pillars, blocks) standing outside the walls, under a gradient sky. The spec (see
+``envs/paper_sim.json``) fixes the geometry and the *ranges* of colours, textures, sizes and
+counts; the world seed draws one world from those ranges with ``np.random.default_rng``:
+the same spec and seed give the identical MJCF string, another seed gives another world.
+
+Lighting is chosen for an omnidirectional camera made of several pinhole cameras: the
+headlight (which MuJoCo attaches to whichever camera renders) carries ambient light only,
+because a directional headlight would light a surface differently in each pinhole camera
+and leave seams in the panorama; fixed directional lights from several azimuths make sure
+that no wall face is black. Materials are matte (no specular highlights) for the same reason.
+Shadows are off (``shadowsize=0``, ``castshadow="false"``): they make software rendering
+about 40 times slower.
+
+This module does not import ``mujoco``: it produces text, which the env compiles.
+"""
+
+from __future__ import annotations
+
+import colorsys
+import json
+import os
+import types
+import typing
+from dataclasses import dataclass, fields, is_dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sfa_gym.sim.worlds.data import envs_dir
+
+TEXTURE_KINDS = ("checker", "gradient", "flat")
+LANDMARK_KINDS = ("tree", "pillar", "box")
+OBSTACLE_KINDS = ("box", "cylinder")
+
+
+def _check_range(value: tuple[float, float], name: str, *, low: float | None = None) -> None:
+    if len(value) != 2 or value[0] > value[1]:
+        raise ValueError(f"{name} must be a [min, max] pair with min <= max, got {list(value)}")
+    if low is not None and value[0] < low:
+        raise ValueError(f"{name} must be >= {low}, got {list(value)}")
+
+
+def _check_positive(value: float, name: str) -> None:
+    if not value > 0:
+        raise ValueError(f"{name} must be positive, got {value!r}")
+
+
+@dataclass(frozen=True)
+class ColourRange:
+    """Colours drawn uniformly in HSV; each field is a ``[min, max]`` pair within [0, 1]."""
+
+    hue: tuple[float, float] = (0.0, 1.0)
+    saturation: tuple[float, float] = (0.3, 0.9)
+    value: tuple[float, float] = (0.4, 0.9)
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            _check_range(getattr(self, f.name), f"colour {f.name}", low=0.0)
+            if getattr(self, f.name)[1] > 1.0:
+                raise ValueError(f"colour {f.name} must lie in [0, 1], got {getattr(self, f.name)}")
+
+    def draw(self, rng: np.random.Generator) -> tuple[float, float, float]:
+        """One RGB colour in [0, 1]^3."""
+        h, s, v = (rng.uniform(*getattr(self, name)) for name in ("hue", "saturation", "value"))
+        return colorsys.hsv_to_rgb(h % 1.0, s, v)
+
+
+@dataclass(frozen=True)
+class SurfaceSpec:
+    """A textured surface (floor, ground or wall panel).
+
+    Attributes:
+        textures: builtin MuJoCo texture kinds to choose from: "checker", "gradient", "flat".
+        colours: range of the two texture colours.
+        repeat: range of texture repeats per metre.
+        marks: fraction of texels replaced by random marks (noise), in [0, 1].
+    """
+
+    textures: tuple[str, ...] = ("checker", "gradient", "flat")
+    colours: ColourRange = ColourRange()
+    repeat: tuple[float, float] = (0.5, 2.0)
+    marks: float = 0.05
+
+    def __post_init__(self) -> None:
+        if not self.textures or any(t not in TEXTURE_KINDS for t in self.textures):
+            raise ValueError(
+                f"textures must be a non-empty subset of {TEXTURE_KINDS}, got {self.textures}"
+            )
+        _check_range(self.repeat, "repeat", low=1e-3)
+        if not 0.0 <= self.marks <= 1.0:
+            raise ValueError(f"marks must lie in [0, 1], got {self.marks}")
+
+
+@dataclass(frozen=True)
+class ArenaSpec:
+    """The walled arena, centred on the world origin (metres).
+
+    Attributes:
+        size: inner size (x, y) between the walls.
+        margin: distance kept between the drivable area and the walls, so that the rover
+            (about 0.5 m square) fits at every position of the drivable area.
+        wall_height: height of the walls.
+        wall_thickness: thickness of the walls.
+        panels_per_wall: each wall is split into this many panels with their own texture.
+    """
+
+    size: tuple[float, float] = (7.0, 7.0)
+    margin: float = 0.5
+    wall_height: float = 0.8
+    wall_thickness: float = 0.1
+    panels_per_wall: int = 4
+
+    def __post_init__(self) -> None:
+        for i, s in enumerate(self.size):
+            _check_positive(s, f"arena size[{i}]")
+        for name in ("margin", "wall_height", "wall_thickness"):
+            _check_positive(getattr(self, name), f"arena {name}")
+        if self.panels_per_wall < 1:
+            raise ValueError(f"panels_per_wall must be >= 1, got {self.panels_per_wall}")
+        if min(self.size) <= 2 * self.margin:
+            raise ValueError(
+                f"arena size {self.size} leaves no drivable area with margin {self.margin}"
+            )
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """Drivable area ``(xmin, xmax, ymin, ymax)``: the inner area less the margin."""
+        hx, hy = self.size[0] / 2 - self.margin, self.size[1] / 2 - self.margin
+        return (-hx, hx, -hy, hy)
+
+
+@dataclass(frozen=True)
+class LandmarkKind:
+    """One kind of landmark and how many of it stand around the arena.
+
+    Attributes:
+        kind: "tree" (trunk and crown), "pillar" (upright cylinder) or "box" (a block).
+        count: how many.
+        height: range of heights (m).
+        width: range of widths (m): crown or pillar diameter, block side.
+        colours: range of colours (the crown for trees).
+    """
+
+    kind: str
+    count: int
+    height: tuple[float, float]
+    width: tuple[float, float]
+    colours: ColourRange = ColourRange()
+
+    def __post_init__(self) -> None:
+        if self.kind not in LANDMARK_KINDS:
+            raise ValueError(f"landmark kind must be one of {LANDMARK_KINDS}, got {self.kind!r}")
+        if self.count < 0:
+            raise ValueError(f"landmark count must be >= 0, got {self.count}")
+        _check_range(self.height, "landmark height", low=1e-3)
+        _check_range(self.width, "landmark width", low=1e-3)
+
+
+@dataclass(frozen=True)
+class LandmarksSpec:
+    """Landmarks outside the walls, spread evenly over the azimuth around the arena centre.
+
+    Attributes:
+        clearance: minimum distance between a landmark's footprint and the walls (m).
+        depth: landmarks stand up to ``clearance + depth`` beyond the walls (m).
+        min_gap: minimum gap between two landmark footprints (m).
+        kinds: the landmark kinds and counts.
+    """
+
+    clearance: float = 0.5
+    depth: float = 4.0
+    min_gap: float = 0.3
+    kinds: tuple[LandmarkKind, ...] = ()
+
+    def __post_init__(self) -> None:
+        _check_positive(self.clearance, "landmarks clearance")
+        _check_positive(self.depth, "landmarks depth")
+        if self.min_gap < 0:
+            raise ValueError(f"landmarks min_gap must be >= 0, got {self.min_gap}")
+
+
+@dataclass(frozen=True)
+class ObstaclesSpec:
+    """Sparse obstacles inside the drivable area (for navigation worlds; none by default).
+
+    Attributes:
+        count: number of obstacles.
+        kinds: shapes to choose from: "box", "cylinder".
+        height: range of heights (m).
+        width: range of widths (m).
+        min_gap: minimum free gap between obstacles, and between obstacles and walls (m);
+            keep it above the rover's width so that obstacles never close a passage.
+        colours: range of colours.
+    """
+
+    count: int = 0
+    kinds: tuple[str, ...] = ("box", "cylinder")
+    height: tuple[float, float] = (0.3, 0.6)
+    width: tuple[float, float] = (0.2, 0.4)
+    min_gap: float = 1.0
+    colours: ColourRange = ColourRange()
+
+    def __post_init__(self) -> None:
+        if self.count < 0:
+            raise ValueError(f"obstacle count must be >= 0, got {self.count}")
+        if not self.kinds or any(k not in OBSTACLE_KINDS for k in self.kinds):
+            raise ValueError(
+                f"obstacle kinds must be a subset of {OBSTACLE_KINDS}, got {self.kinds}"
+            )
+        _check_range(self.height, "obstacle height", low=1e-3)
+        _check_range(self.width, "obstacle width", low=1e-3)
+
+
+@dataclass(frozen=True)
+class DirectionalLight:
+    """A directional light shining from ``azimuth_deg`` (from +x, counter-clockwise) and
+    ``elevation_deg`` above the horizon, with diffuse intensity ``diffuse`` (0..1)."""
+
+    azimuth_deg: float
+    elevation_deg: float
+    diffuse: float
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.elevation_deg <= 90.0:
+            raise ValueError(f"light elevation_deg must lie in (0, 90], got {self.elevation_deg}")
+        if not 0.0 <= self.diffuse <= 1.0:
+            raise ValueError(f"light diffuse must lie in [0, 1], got {self.diffuse}")
+
+
+@dataclass(frozen=True)
+class LightsSpec:
+    """Ambient light (carried by the headlight) and fixed directional lights.
+
+    Attributes:
+        ambient: ambient intensity (0..1) that reaches every face.
+        directional: the directional lights.
+        jitter_deg: each light's azimuth and elevation vary by up to this much per world.
+    """
+
+    ambient: float = 0.35
+    directional: tuple[DirectionalLight, ...] = ()
+    jitter_deg: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.ambient <= 1.0:
+            raise ValueError(f"ambient must lie in [0, 1], got {self.ambient}")
+        if self.jitter_deg < 0:
+            raise ValueError(f"jitter_deg must be >= 0, got {self.jitter_deg}")
+
+
+@dataclass(frozen=True)
+class SkySpec:
+    """A gradient skybox from ``zenith`` colours to ``horizon`` colours."""
+
+    zenith: ColourRange = ColourRange((0.55, 0.65), (0.5, 0.8), (0.6, 0.9))
+    horizon: ColourRange = ColourRange((0.55, 0.65), (0.05, 0.25), (0.85, 1.0))
+
+
+@dataclass(frozen=True)
+class WorldSpec:
+    """Everything that defines a family of worlds; one world seed picks one member.
+
+    Load one with :func:`load_world_spec`. Lengths in metres, angles in degrees.
+    """
+
+    name: str
+    description: str = ""
+    arena: ArenaSpec = ArenaSpec()
+    floor: SurfaceSpec = SurfaceSpec()
+    ground: SurfaceSpec = SurfaceSpec()
+    walls: SurfaceSpec = SurfaceSpec()
+    landmarks: LandmarksSpec = LandmarksSpec()
+    obstacles: ObstaclesSpec = ObstaclesSpec()
+    lights: LightsSpec = LightsSpec()
+    sky: SkySpec = SkySpec()
+
+
+def _convert(value: Any, hint: Any, where: str) -> Any:
+    """Turn parsed JSON into the type ``hint`` (dataclass, tuple, float, int, str)."""
+    origin = typing.get_origin(hint)
+    if is_dataclass(hint):
+        return _from_dict(hint, value, where)
+    if origin in (typing.Union, types.UnionType):
+        return _convert(value, next(a for a in typing.get_args(hint) if a is not type(None)), where)
+    if origin is tuple:
+        if not isinstance(value, list | tuple):
+            raise ValueError(f"{where} must be a list, got {value!r}")
+        args = typing.get_args(hint)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_convert(v, args[0], f"{where}[{i}]") for i, v in enumerate(value))
+        if len(value) != len(args):
+            raise ValueError(f"{where} must have {len(args)} entries, got {value!r}")
+        return tuple(
+            _convert(v, a, f"{where}[{i}]")
+            for i, (v, a) in enumerate(zip(value, args, strict=True))
+        )
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f"{where} must be a number, got {value!r}")
+        return float(value)
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"{where} must be an integer, got {value!r}")
+        return value
+    if hint is str:
+        if not isinstance(value, str):
+            raise ValueError(f"{where} must be a string, got {value!r}")
+        return value
+    raise TypeError(f"unsupported field type {hint!r} at {where}")
+
+
+def _from_dict(cls: type, data: Any, where: str) -> Any:
+    if not isinstance(data, dict):
+        raise ValueError(f"{where} must be a JSON object, got {data!r}")
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in fields(cls)}
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise ValueError(f"{where}: unknown keys {unknown}; expected some of {sorted(names)}")
+    kwargs = {k: _convert(v, hints[k], f"{where}.{k}") for k, v in data.items()}
+    try:
+        return cls(**kwargs)
+    except TypeError as e:
+        raise ValueError(f"{where}: {e}") from e
+
+
+def world_spec_from_dict(data: dict[str, Any]) -> WorldSpec:
+    """Build a validated :class:`WorldSpec` from parsed JSON; errors name the bad key."""
+    return _from_dict(WorldSpec, data, "world")
+
+
+def available_worlds() -> list[str]:
+    """Names of the world specs shipped with the package (``envs/*.json``)."""
+    return sorted(p.stem for p in envs_dir().glob("*.json"))
+
+
+def load_world_spec(world: str | os.PathLike[str]) -> WorldSpec:
+    """Load a world spec by name (``"paper_sim"``) or from a path to a JSON file.
+
+    Raises:
+        ValueError: no such world, or the file is not a valid spec (the message says where).
+    """
+    path = Path(world)
+    if path.suffix != ".json":
+        path = envs_dir() / f"{world}.json"
+        if not path.is_file():
+            raise ValueError(f"unknown world {str(world)!r}; available: {available_worlds()}")
+    elif not path.is_file():
+        raise ValueError(f"world spec file {str(path)!r} does not exist")
+    with open(path, encoding="utf-8") as f:
+        data = json.load(f)
+    return world_spec_from_dict(data)
