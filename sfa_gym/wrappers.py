@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Any, Protocol
+from typing import Any, Literal, Protocol, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym.rotation import n_rotations, rotated_views
+from sfa_gym.rotation import check_window, n_rotations, rotated_views, rotation_angles
 
 __all__ = ["FeatureModel", "SlowFeatureObservation"]
 
@@ -157,3 +157,104 @@ class SlowFeatureObservation(
         else:
             features = np.asarray(self.model.transform(observation[None]))[0]
         return features.astype(np.float32)
+
+
+class SimulatedRotation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
+    """Replace each panorama by one simulated rotation of it.
+
+    At every ``reset`` and ``step`` the wrapper picks a view index ``k`` and returns
+    ``np.roll(panorama, -k * step, axis=1)[:, :window]``, i.e. what the camera would see had the
+    rover been turned by ``phi = 2*pi*k*step/W`` more (counter-clockwise). The pose in ``info``
+    stays the rover's true pose; ``info["phi"]`` (radians) and ``info["phi_index"]`` (``k``)
+    report the simulated extra rotation.
+
+    Args:
+        env: an env whose observation space is a panorama, ``Box(0, 255, (H, W, 3), uint8)``.
+        step: shift between rotations, in columns; must divide ``W``.
+        window: crop each view to its first ``window`` columns; ``None`` keeps the full width.
+        mode: ``"random"``: ``k`` drawn uniformly from ``0 .. W // step - 1`` with
+            ``self.np_random`` (the wrapped env's generator, seeded by ``reset(seed=...)``) at
+            every reset and step; ``"sequential"``: ``k = 0`` at reset, then ``k + 1`` (modulo
+            ``K``) at every step.
+
+    Example:
+        >>> import gymnasium as gym
+        >>> import sfa_gym
+        >>> from sfa_gym.wrappers import SimulatedRotation
+        >>> env = SimulatedRotation(gym.make("sfa_gym/OmniRover-v0"), window=175, mode="sequential")
+        >>> env.observation_space.shape
+        (40, 175, 3)
+        >>> obs, info = env.reset(seed=0)
+        >>> info["phi_index"], info["phi"]
+        (0, 0.0)
+        >>> obs, *_, info = env.step(env.action_space.sample())
+        >>> info["phi_index"], round(float(np.degrees(info["phi"])), 6)
+        (1, 5.142857)
+        >>> env.close()
+    """
+
+    def __init__(
+        self,
+        env: gym.Env,
+        step: int = 5,
+        window: int | None = None,
+        mode: Literal["random", "sequential"] = "random",
+    ) -> None:
+        space = env.observation_space
+        if (
+            not isinstance(space, gym.spaces.Box)
+            or len(space.shape) != 3
+            or space.shape[2] != 3
+            or space.dtype != np.uint8
+        ):
+            raise ValueError(
+                "SimulatedRotation needs a panorama observation space Box(0, 255, (H, W, 3), "
+                f"uint8), got {space}"
+            )
+        if mode not in ("random", "sequential"):
+            raise ValueError(
+                f"SimulatedRotation mode must be 'random' or 'sequential', got {mode!r}"
+            )
+        height, width, _ = space.shape
+        try:
+            n_views = n_rotations(width, step)
+            window = check_window(width, window)
+        except (TypeError, ValueError) as error:
+            raise type(error)(f"SimulatedRotation: {error}") from None
+        gym.utils.RecordConstructorArgs.__init__(self, step=step, window=window, mode=mode)
+        gym.ObservationWrapper.__init__(self, env)
+        self.n_views = n_views
+        self.rotation_step = int(step)
+        self.window = window
+        self.mode = mode
+        self.phis = rotation_angles(width, step)
+        self.observation_space = gym.spaces.Box(0, 255, (height, window, 3), np.uint8)
+        self._index = 0
+
+    def observation(self, observation: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        """View ``self._index`` of ``observation`` ``(H, W, 3)``: ``(H, window, 3)`` uint8."""
+        views, _ = rotated_views(observation, self.rotation_step, self.window, [self._index])
+        return views[0]
+
+    def _with_phi(self, info: dict[str, Any]) -> dict[str, Any]:
+        return {**info, "phi": float(self.phis[self._index]), "phi_index": int(self._index)}
+
+    def _draw(self) -> int:
+        return int(self.np_random.integers(self.n_views))
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.uint8], dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        self._index = self._draw() if self.mode == "random" else 0
+        return self.observation(obs), self._with_phi(info)
+
+    def step(
+        self, action: Any
+    ) -> tuple[NDArray[np.uint8], SupportsFloat, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        if self.mode == "random":
+            self._index = self._draw()
+        else:
+            self._index = (self._index + 1) % self.n_views
+        return self.observation(obs), reward, terminated, truncated, self._with_phi(info)

@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 
 import sfa_gym  # noqa: F401  (registers the envs)
 import sfa_gym.rotation
-from sfa_gym.rotation import SimulatedRotation, n_rotations, rotated_views
+from sfa_gym.rotation import n_rotations, rotated_views
+from sfa_gym.wrappers import SimulatedRotation
 
 ENV_ID = "sfa_gym/OmniRover-v0"
 

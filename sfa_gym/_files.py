@@ -1,0 +1,92 @@
+"""Writing files so that nothing is lost: atomically, durably, and with strict JSON.
+
+A file is written to a temporary file in the same directory, flushed and fsynced, then renamed
+over the target (``os.replace`` is atomic on POSIX), and the directory is fsynced so that the
+rename survives a power cut. A reader therefore sees the old file or the new one, never half of
+one. Runs (:mod:`sfa_gym.recording.runfile`) and models (:mod:`sfa_gym.sfa.io`) both write this
+way; this module imports nothing but the standard library.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO, Any
+
+__all__ = ["write_atomic", "write_json_atomic", "strict_json"]
+
+
+def _fsync_dir(directory: Path) -> None:
+    # makes the rename durable; not possible on every platform
+    with contextlib.suppress(OSError):
+        fd = os.open(directory, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def write_atomic(path: str | os.PathLike[str], write: Callable[[IO[bytes]], None]) -> None:
+    """Create or replace ``path`` with what ``write(file)`` writes, atomically and durably.
+
+    ``write`` receives a binary file object. If it raises (or the process is interrupted), the
+    temporary file is removed and ``path`` is left as it was.
+    """
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as file:
+            write(file)
+            file.flush()
+            os.fsync(file.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+    _fsync_dir(directory)
+
+
+def _find_non_finite(value: Any, where: str) -> str | None:
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"{where} = {value!r}"
+    if isinstance(value, dict):
+        for key, item in value.items():
+            found = _find_non_finite(item, f"{where}.{key}" if where else str(key))
+            if found:
+                return found
+    if isinstance(value, list | tuple):
+        for i, item in enumerate(value):
+            found = _find_non_finite(item, f"{where}[{i}]")
+            if found:
+                return found
+    return None
+
+
+def strict_json(value: Any, indent: int | None = 1) -> str:
+    """``json.dumps`` that refuses NaN and infinities, naming the offending key.
+
+    Standard JSON has no NaN or Infinity; Python writes them anyway and most other readers
+    then fail. Raises:
+        ValueError: a value is not finite; the message gives its path, e.g. ``a.b[2] = nan``.
+    """
+    try:
+        return json.dumps(value, indent=indent, allow_nan=False)
+    except ValueError:
+        found = _find_non_finite(value, "")
+        raise ValueError(
+            f"cannot write a non-finite number to JSON: {found or 'a value'}; "
+            "expected finite numbers"
+        ) from None
+
+
+def write_json_atomic(path: str | os.PathLike[str], value: Any, indent: int | None = 1) -> None:
+    """Write ``value`` as strict JSON (see :func:`strict_json`) to ``path``, atomically."""
+    text = strict_json(value, indent=indent).encode()
+    write_atomic(path, lambda file: file.write(text))
