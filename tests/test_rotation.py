@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 import sfa_gym  # noqa: F401  (registers the envs)
 import sfa_gym.rotation
+import sfa_gym.wrappers
 from sfa_gym.rotation import n_rotations, rotated_views
 from sfa_gym.wrappers import SimulatedRotation
 
@@ -171,6 +172,7 @@ def test_wrapper_rejects_non_panorama_spaces():
         SimulatedRotation(gym.make(ENV_ID).unwrapped, mode="spin")
 
 
-def test_docstring_examples():
-    failures, attempted = doctest.testmod(sfa_gym.rotation, verbose=False)
-    assert attempted >= 8 and failures == 0
+@pytest.mark.parametrize("module", [sfa_gym.rotation, sfa_gym.wrappers])
+def test_docstring_examples(module):
+    failures, attempted = doctest.testmod(module, verbose=False)
+    assert attempted >= 4 and failures == 0
