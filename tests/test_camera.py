@@ -374,6 +374,34 @@ def test_context_from_another_process_is_refused_not_reused():
         camera.close()
 
 
+def test_views_beyond_the_framebuffer_fail_at_construction():
+    huge = PanoramaSpec(width=20000, height=40)
+    model, _ = make_scene(huge)
+    with pytest.raises(ValueError, match=r"width=20000.*25472x13824.*at most 16384x16384"):
+        OmniCamera(model, huge)
+
+
+def test_the_limit_a_driver_reports_is_checked_too(monkeypatch):
+    monkeypatch.setattr(gl, "_queried_limit", 100)
+    with pytest.raises(ValueError, match=r"a 120x80 offscreen.*at most 100x100"):
+        gl.check_framebuffer(120, 80, "a")
+    gl.check_framebuffer(100, 100, "fits")
+    with pytest.raises(ValueError, match="at most 50x50"):
+        gl.check_framebuffer(60, 10, "b", limit=50)
+
+
+def test_cameras_open_at_exit_are_closed_by_the_gl_module():
+    model, data = make_scene()
+    camera = OmniCamera(model, SPEC)
+    camera.render(data)
+    assert camera in gl._LIVE
+    gl._close_live()  # what runs at exit
+    assert camera._con is None and camera not in gl._LIVE
+    camera.render(data)  # a closed camera opens a new context
+    camera.close()
+    assert camera not in gl._LIVE
+
+
 # -- sky sampling -------------------------------------------------------------------------------
 
 

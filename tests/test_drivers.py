@@ -150,6 +150,44 @@ def test_driver_arguments_are_checked():
         driver({"x": 0.0, "y": 0.0})
 
 
+@pytest.mark.parametrize(
+    "driver, name",
+    [
+        (LawnMowerDriver(spin=math.nan), "spin"),
+        (LawnMowerDriver(offset=math.inf), "offset"),
+        (LawnMowerDriver(margin=math.nan), "margin"),
+        (LawnMowerDriver(clearance=-0.1), "clearance"),
+        (LawnMowerDriver(exclude=(0.0, math.nan, 0.0, 1.0)), "exclude"),
+        (LawnMowerDriver(exclude=(1.0, 0.0, 0.0, 1.0)), "exclude"),
+        (LawnMowerDriver(speed=math.nan), "speed"),
+        (LoopDriver(insets=(0.5, math.nan)), "inset"),
+        (LoopDriver(turn_rate=0.0), "turn_rate"),
+        (RandomWalkDriver(turn_probability=math.nan), "turn_probability"),
+        (RandomWalkDriver(margin=math.nan), "margin"),
+    ],
+)
+def test_non_finite_and_out_of_range_arguments_are_named(driver, name):
+    with pytest.raises(ValueError, match=name):
+        driver.reset(BOUNDS)
+
+
+def test_infinite_bounds_are_refused():
+    with pytest.raises(ValueError, match="bounds"):
+        RandomWalkDriver().reset((-math.inf, 3.0, -3.0, 3.0))
+
+
+def test_steering_arguments_are_stored_by_the_base_class():
+    for cls in (WaypointDriver, LawnMowerDriver, LoopDriver):
+        driver = cls(speed=0.3, turn_rate=0.7, tolerance=0.2, turn_in_place=0.4)
+        params = driver.get_params()
+        assert {k: params[k] for k in ("speed", "turn_rate", "tolerance", "turn_in_place")} == {
+            "speed": 0.3,
+            "turn_rate": 0.7,
+            "tolerance": 0.2,
+            "turn_in_place": 0.4,
+        }
+
+
 def test_describe_reports_the_arguments():
     description = LawnMowerDriver(spacing=0.7, exclude=(0, 1, 0, 1)).describe()
     assert description["type"] == "LawnMowerDriver"
@@ -233,7 +271,7 @@ def env():
 
 
 def _drive(env, driver, n, seed=0, pose=None):
-    driver.reset(env.unwrapped.arena_bounds, dt=env.unwrapped.control_dt, seed=seed)
+    driver.reset(env.get_wrapper_attr("arena_bounds"), dt=env.get_wrapper_attr("dt"), seed=seed)
     pose = pose or driver.start_pose
     _, info = env.reset(seed=seed, options=None if pose is None else {"pose": pose})
     poses = [(info["x"], info["y"], info["yaw"])]
@@ -248,16 +286,30 @@ def test_lawn_mower_drives_the_real_rover_along_its_first_row(env):
     poses = _drive(env, driver, n=40)
     (x0, y0), (x1, y1) = driver.path()[:2]
     assert (x0, y0) == pytest.approx(poses[0, :2], abs=1e-6) and y1 == y0 and x1 > x0
-    speed = np.hypot(*np.diff(poses[:, :2], axis=0).T) / env.unwrapped.control_dt
+    speed = np.hypot(*np.diff(poses[:, :2], axis=0).T) / env.get_wrapper_attr("dt")
     assert speed.max() < 0.4 * 1.1
-    assert poses[-1, 0] - x0 > 0.6 * 0.4 * 40 * env.unwrapped.control_dt
+    assert poses[-1, 0] - x0 > 0.6 * 0.4 * 40 * env.get_wrapper_attr("dt")
     assert np.abs(poses[:, 1] - y0).max() < 0.1
+
+
+class _Shrunk(gym.Wrapper):
+    """A wrapper that offers its own, coarser grid of positions."""
+
+    def grid_positions(self, n: int = 30) -> np.ndarray:
+        g = np.linspace(-1.0, 1.0, n)
+        gx, gy = np.meshgrid(g, g)
+        return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+
+def test_grid_positions_ask_the_outermost_wrapper_that_offers_them(env):
+    poses = GridPositions(n=3, seed=0).poses(_Shrunk(env))
+    assert sorted(set(poses[:, 0].tolist())) == [-1.0, 0.0, 1.0]
 
 
 def test_grid_positions_of_the_real_env(env):
     poses = GridPositions(n=30, seed=0, order="hilbert").poses(env)
     assert poses.shape == (900, 3)
-    grid = env.unwrapped.grid_positions(30)
+    grid = env.get_wrapper_attr("grid_positions")(30)
     key = lambda p: np.lexsort((p[:, 0], p[:, 1]))  # noqa: E731
     np.testing.assert_array_equal(poses[key(poses), :2], grid[key(grid)])
     _, info = env.reset(seed=0, options={"pose": tuple(poses[17])})
@@ -265,7 +317,7 @@ def test_grid_positions_of_the_real_env(env):
 
 
 def test_random_walk_turns_back_before_the_real_wall(env):
-    xmax = env.unwrapped.arena_bounds[1]
+    xmax = env.get_wrapper_attr("arena_bounds")[1]
     # start 0.2 m from the edge of the drivable area, heading straight at it
     poses = _drive(env, RandomWalkDriver(margin=0.5), n=30, pose=(xmax - 0.2, 0.0, 0.0))
     assert poses[:, 0].max() < xmax

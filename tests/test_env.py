@@ -61,7 +61,7 @@ def test_registered_ids_have_the_paper_resolutions_and_time_limit():
     outdoor = gym.make("sfa_gym/OmniRoverOutdoorCam-v0")
     assert sim.observation_space.shape == (40, 350, 3)
     assert outdoor.observation_space.shape == (60, 600, 3)
-    assert sim.unwrapped.layout == outdoor.unwrapped.layout  # the same world
+    assert sim.get_wrapper_attr("layout") == outdoor.get_wrapper_attr("layout")  # the same world
     sim.close()
     outdoor.close()
 
@@ -205,6 +205,32 @@ def test_top_down_render():
     assert top.std() > 10
     e.close()
     e.close()  # closing twice is allowed
+
+
+def test_dt_is_the_control_period_and_reachable_through_wrappers():
+    wrapped = gym.make("sfa_gym/OmniRover-v0", control_dt=0.05, panorama=SMALL)
+    try:
+        assert wrapped.get_wrapper_attr("dt") == 0.05 == wrapped.unwrapped.control_dt
+        assert wrapped.get_wrapper_attr("arena_bounds") == (-3.0, 3.0, -3.0, 3.0)
+        _, info = wrapped.reset(seed=0)
+        _, _, _, _, info2 = wrapped.step(np.zeros(2, np.float32))
+        assert info2["t"] - info["t"] == pytest.approx(wrapped.get_wrapper_attr("dt"))
+    finally:
+        wrapped.close()
+
+
+@pytest.mark.parametrize(
+    "kwargs, size",
+    [
+        ({"panorama": PanoramaSpec(width=20000, height=40)}, "25472x13824"),
+        ({"render_mode": "rgb_array", "render_size": 20000}, "20000x20000"),
+    ],
+)
+def test_sizes_beyond_the_framebuffer_fail_at_construction(kwargs, size):
+    from sfa_gym.sim import gl
+
+    with pytest.raises(ValueError, match=rf"{size}.*at most {gl.MAX_FRAMEBUFFER_SIDE}x"):
+        OmniRoverEnv(**kwargs)
 
 
 def test_bad_arguments_raise_clear_errors(env):

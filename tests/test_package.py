@@ -85,6 +85,16 @@ def test_sfa_engine_imports_neither_gymnasium_nor_mujoco():
             for name in names:
                 root = name.split(".")[0]
                 assert root not in {"gymnasium", "mujoco"}, f"{path.name} imports {name}"
+                # the engine may use the numpy-only helpers of the package, nothing of the sim
                 assert not name.startswith("sfa_gym.") or name.startswith(
-                    ("sfa_gym.sfa", "sfa_gym._types")
+                    ("sfa_gym.sfa", "sfa_gym._types", "sfa_gym.rotation", "sfa_gym._files")
                 ), f"{path.name} imports {name}"
+
+
+def test_importing_the_sfa_engine_loads_neither_mujoco_nor_opengl():
+    code = (
+        "import sys, sfa_gym.sfa; "
+        "print(sorted(m for m in ('mujoco', 'OpenGL') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

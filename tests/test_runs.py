@@ -2,15 +2,21 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
-from sfa_gym.recording.drivers import GridPositions, LawnMowerDriver, RandomWalkDriver
+from sfa_gym.recording.drivers import GridPositions, LawnMowerDriver, LoopDriver, RandomWalkDriver
 from sfa_gym.recording.recorder import ReplayMismatchError, RunMismatchError, record
 from sfa_gym.recording.runfile import RunFormatError, load_run
 
@@ -78,7 +84,7 @@ def _mower() -> LawnMowerDriver:
 
 def _rollout(env: gym.Env, driver, n: int, seed: int):
     """The samples record() must store, computed independently of it."""
-    driver.reset(env.unwrapped.arena_bounds, dt=env.unwrapped.dt, seed=seed)
+    driver.reset(env.get_wrapper_attr("arena_bounds"), dt=env.get_wrapper_attr("dt"), seed=seed)
     obs, info = env.reset(seed=seed, options={"pose": driver.start_pose})
     frames, poses, actions = [obs], [(info["x"], info["y"], info["yaw"])], [np.zeros(2)]
     while len(frames) < n and not driver.done:
@@ -385,3 +391,206 @@ def test_real_env_pose_list_run(tmp_path):
         np.angle(np.exp(1j * (run.poses[:, 2] - expected[:, 2]))), 0, atol=1e-6
     )
     np.testing.assert_array_equal(run.panoramas[1], obs)
+
+
+# ------------------------------------------------------------------------ checksums
+
+
+def _flip_a_panorama_byte(run_dir, chunk: int) -> None:
+    """Invert one byte deep inside the memory-mapped panoramas of a chunk.
+
+    Deep: opening a chunk reads the first 4 kB of each member (the zip reader's block), and
+    for a member that short the zip's own CRC would catch the change.
+    """
+    offset = load_run(run_dir, verify=False).panoramas.chunk(chunk).offset
+    path = run_dir / f"chunk-{chunk:05d}.npz"
+    data = bytearray(path.read_bytes())
+    data[offset + 6000] ^= 0xFF
+    path.write_bytes(bytes(data))
+
+
+@pytest.fixture
+def long_chunks(tmp_path):
+    """Chunks of 30 samples (8.6 kB of panoramas each)."""
+    record(TinyRover(), _mower(), tmp_path / "b.run", n_steps=70, chunk_size=30, progress=False)
+    return tmp_path / "b.run"
+
+
+def test_chunks_carry_their_sha256_in_the_header(small_run):
+    header = json.loads((small_run / "run.json").read_text())
+    for entry in header["chunks"]:
+        digest = hashlib.sha256((small_run / entry["file"]).read_bytes()).hexdigest()
+        assert entry["sha256"] == digest
+
+
+def test_flipped_bytes_in_a_chunk_are_detected_and_the_chunk_named(long_chunks):
+    clean = np.asarray(load_run(long_chunks).panoramas)
+    _flip_a_panorama_byte(long_chunks, 1)
+    run = load_run(long_chunks)  # opening stays cheap: chunks are checked when first read
+    np.testing.assert_array_equal(run.panoramas[:30], clean[:30])  # chunk 0 is intact
+    with pytest.raises(RunFormatError, match=r"chunk-00001\.npz is corrupted"):
+        run.panoramas[31]
+    with pytest.raises(RunFormatError, match=r"chunk-00001\.npz is corrupted"):
+        load_run(long_chunks).verify()
+    unchecked = np.asarray(load_run(long_chunks, verify=False).panoramas)
+    assert (unchecked != clean).sum() == 1
+
+
+def test_runs_without_checksums_still_load(small_run):
+    path = small_run / "run.json"
+    header = json.loads(path.read_text())
+    for entry in header["chunks"]:
+        del entry["sha256"]
+    path.write_text(json.dumps(header))
+    run = load_run(small_run)
+    run.verify()
+    assert len(run) == 12 and np.asarray(run.panoramas).shape == (12, 4, 24, 3)
+
+
+def test_a_malformed_checksum_is_named(small_run):
+    path = small_run / "run.json"
+    header = json.loads(path.read_text())
+    header["chunks"][2]["sha256"] = "abc"
+    path.write_text(json.dumps(header))
+    with pytest.raises(RunFormatError, match=r"chunk-00002\.npz.*64 hex digits"):
+        load_run(small_run)
+
+
+def test_resuming_checks_the_stored_chunks(tmp_path):
+    out = tmp_path / "a.run"
+    with pytest.raises(KeyboardInterrupt):
+        record(
+            TinyRover(), _mower(), out, n_steps=90, chunk_size=30, progress=False,
+            on_chunk=_stop_after(60),
+        )  # fmt: skip
+    _flip_a_panorama_byte(out, 0)
+    with pytest.raises(RunFormatError, match=r"chunk-00000\.npz is corrupted"):
+        record(TinyRover(), _mower(), out, n_steps=90, chunk_size=30, progress=False)
+
+
+# ------------------------------------------------- nothing is written before the checks
+
+
+@pytest.mark.parametrize(
+    "driver, message",
+    [
+        (LawnMowerDriver(spacing=-1.0), "spacing"),
+        (LawnMowerDriver(spin=math.nan), "spin"),
+        (LoopDriver(insets=(5.0,)), "inset"),
+        (GridPositions(n=0), "n must"),
+    ],
+)
+def test_bad_driver_options_are_refused_before_anything_is_written(tmp_path, driver, message):
+    out = tmp_path / "a.run"
+    with pytest.raises(ValueError, match=message):
+        record(TinyRover(), driver, out, n_steps=5, progress=False)
+    assert not out.exists()
+    assert record(TinyRover(), _mower(), out, n_steps=5, progress=False).complete
+
+
+def test_non_finite_settings_never_reach_the_header(tmp_path):
+    env = TinyRover()
+    env.world_seed = math.nan
+    out = tmp_path / "a.run"
+    with pytest.raises(ValueError, match=r"non-finite.*world_seed = nan"):
+        record(env, _mower(), out, n_steps=5, progress=False)
+    assert not out.exists()
+
+
+class _FloatImages(TinyRover):
+    def __init__(self) -> None:
+        super().__init__()
+        self.observation_space = gym.spaces.Box(0.0, 1.0, (4, 24, 3), np.float32)
+
+
+class _NoArena(TinyRover):
+    arena_bounds = None
+
+
+@pytest.mark.parametrize(
+    "env, message",
+    [(_FloatImages(), r"uint8 Box of shape \(H, W, 3\)"), (_NoArena(), "arena_bounds")],
+)
+def test_unsuitable_envs_are_refused_before_anything_is_written(tmp_path, env, message):
+    out = tmp_path / "a.run"
+    with pytest.raises(ValueError, match=message):
+        record(env, _mower(), out, n_steps=5, progress=False)
+    assert not out.exists()
+
+
+def test_bad_output_paths_and_seeds_are_refused_in_one_line(tmp_path):
+    (tmp_path / "file.run").write_text("")
+    with pytest.raises(ValueError, match=r"file\.run' exists and is not a directory"):
+        record(TinyRover(), _mower(), tmp_path / "file.run", n_steps=5, progress=False)
+    (tmp_path / "plain").write_text("")
+    with pytest.raises(ValueError, match="is a file"):
+        record(TinyRover(), _mower(), tmp_path / "plain" / "a.run", n_steps=5, progress=False)
+    for seed in (-1, True, 1.5):
+        with pytest.raises(ValueError, match="seed"):
+            record(TinyRover(), _mower(), tmp_path / "a.run", n_steps=5, seed=seed)
+    with pytest.raises(ValueError, match="n_steps"):
+        record(TinyRover(), _mower(), tmp_path / "a.run", n_steps=True)
+    assert not (tmp_path / "a.run").exists()
+
+
+class _SmallerArena(gym.Wrapper):
+    """A wrapper that restricts the drivable area: drivers must see its bounds."""
+
+    arena_bounds = (-0.5, 0.5, -0.5, 0.5)
+
+
+def test_public_attributes_are_read_through_wrappers(tmp_path):
+    run = record(
+        _SmallerArena(TinyRover()), LoopDriver(insets=(0.1,)), tmp_path / "a.run",
+        progress=False,
+    )  # fmt: skip
+    assert run.metadata["arena_bounds"] == [-0.5, 0.5, -0.5, 0.5] and run.metadata["dt"] == 0.1
+    assert np.abs(run.positions).max() < 0.5
+
+
+# ------------------------------------------------------------------------- SIGTERM
+
+_STALLING_RECORDER = """
+import sys, time
+sys.path.insert(0, sys.argv[1])
+from test_runs import TinyRover, _mower
+from sfa_gym.recording.recorder import record
+
+env, steps = TinyRover(), []
+
+def stalling_step(action):
+    steps.append(action)
+    if len(steps) == 13:  # 13 samples are buffered: signal here
+        open(sys.argv[3], "w").close()
+        while True:
+            time.sleep(0.01)
+    return TinyRover.step(env, action)
+
+env.step = stalling_step
+record(env, _mower(), sys.argv[2], n_steps=40, chunk_size=100, progress=False)
+"""
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGTERM") or sys.platform == "win32", reason="POSIX")
+def test_sigterm_writes_the_buffered_samples_and_the_run_resumes(tmp_path):
+    out, marker = tmp_path / "a.run", tmp_path / "stalled"
+    tests = str(Path(__file__).resolve().parent)
+    child = subprocess.Popen(
+        [sys.executable, "-c", _STALLING_RECORDER, tests, str(out), str(marker)],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        while not marker.exists():
+            assert child.poll() is None, child.stderr.read()
+            time.sleep(0.01)
+        child.send_signal(signal.SIGTERM)
+        assert child.wait(timeout=120) == 128 + signal.SIGTERM
+    finally:
+        child.kill()
+        child.stderr.close()
+    partial = load_run(out)
+    assert len(partial) == 13 and not partial.complete  # nothing was flushed before the signal
+    resumed = record(TinyRover(), _mower(), out, n_steps=40, chunk_size=100, progress=False)
+    reference = record(TinyRover(), _mower(), tmp_path / "ref.run", n_steps=40, progress=False)
+    _assert_same_run(resumed, reference)

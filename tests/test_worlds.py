@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import math
 
@@ -126,3 +127,55 @@ def test_bad_world_seed(spec):
         build_world(spec, -1)
     with pytest.raises(TypeError, match="1.5"):
         build_world(spec, 1.5)
+
+
+# The MJCF of the shipped world for seeds 0..3, as generated before world building was
+# reorganised (landmark and obstacle placement share one helper): same spec and seed, same
+# text, hence the same pixels. A deliberate change of the worlds changes these and the env id.
+PAPER_SIM_MJCF_SHA256 = {
+    0: "2cfb8bdfd1877dc3a4b3f3a5e766a6d9be96b3af64808c27b3c9c50ed2adac25",
+    1: "dd5f16f1d4153a6963629b635167e22b5648ef9715851f7d0a2d302d1d76c755",
+    2: "6c0045c541fe9573bdc078490acc089dcc9fa069b1f13651e27be173203ffdec",
+    3: "b6dc553c27e95b7f5cafa5827ab71f00adb35acb65f2c45fa49fadea66ce061a",
+}
+
+
+@pytest.mark.parametrize("seed", sorted(PAPER_SIM_MJCF_SHA256))
+def test_paper_sim_worlds_are_generated_as_before(spec, seed):
+    mjcf = build_world(spec, seed).mjcf
+    assert hashlib.sha256(mjcf.encode()).hexdigest() == PAPER_SIM_MJCF_SHA256[seed]
+
+
+def _write(tmp_path, text: str):
+    path = tmp_path / "broken.json"
+    path.write_text(text)
+    return path
+
+
+def test_malformed_world_json_names_the_file_and_the_position(tmp_path, spec_dict):
+    text = json.dumps(spec_dict, indent=1).splitlines()
+    text[2] = text[2].rstrip(",")  # a missing comma at the end of line 3
+    path = _write(tmp_path, "\n".join(text))
+    with pytest.raises(ValueError, match=r"broken\.json.*line 4, column 2") as error:
+        load_world_spec(path)
+    assert "Traceback" not in str(error.value)
+    with pytest.raises(ValueError, match=r"broken\.json.*line 1, column 1"):
+        load_world_spec(_write(tmp_path, ""))
+    # a well-formed file with a bad value names the file and the key
+    bad = {**spec_dict, "arena": {**spec_dict["arena"], "margin": "wide"}}
+    with pytest.raises(ValueError, match=r"broken\.json.*arena\.margin"):
+        load_world_spec(_write(tmp_path, json.dumps(bad)))
+
+
+@pytest.mark.parametrize("name", ['say "cheese"', "a<b & c>d", "it's"])
+def test_any_world_name_gives_a_valid_mjcf(spec, name):
+    world = build_world(dataclasses.replace(spec, name=name), 0)
+    model = mujoco.MjModel.from_xml_string(world.mjcf)
+    model_name = bytes(model.names).split(b"\0")[0].decode()  # names start with the model's
+    assert model_name == f"sfa_gym_{name}_0"
+
+
+@pytest.mark.parametrize("name", ["", "bell\a", "new\nline", "tab\there"])
+def test_world_names_that_xml_cannot_carry_are_refused(spec_dict, name):
+    with pytest.raises(ValueError, match="world name"):
+        world_spec_from_dict({**spec_dict, "name": name})

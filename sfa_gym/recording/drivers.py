@@ -1,11 +1,15 @@
 """Scripted drivers: the trajectories along which training and test runs are recorded.
 
+(Longer than 500 lines on purpose: the drivers share one base class, one steering controller
+and its arguments, and are read side by side when choosing a training or test trajectory.)
+
 A driver steers the rover in closed loop. :meth:`Driver.reset` gives it the drivable area
-``bounds = (xmin, xmax, ymin, ymax)`` (metres, e.g. ``env.unwrapped.arena_bounds``), the control
-period ``dt`` (seconds) and a seed; then, once per env step, ``driver(info)`` reads the latest
-ground-truth pose ``info["x"], info["y"], info["yaw"]`` and returns the next action
-``(v, w)`` (float32 m/s and rad/s), until ``driver.done``. ``driver.start_pose`` is the pose to
-``reset`` the env to (or ``None`` for the env's default start).
+``bounds = (xmin, xmax, ymin, ymax)`` (metres, e.g. ``env.get_wrapper_attr("arena_bounds")``),
+the control period ``dt`` (seconds, ``env.get_wrapper_attr("dt")``) and a seed; then, once
+per env step, ``driver(info)`` reads the latest ground-truth pose ``info["x"], info["y"],
+info["yaw"]`` and returns the next action ``(v, w)`` (float32 m/s and rad/s), until
+``driver.done``. ``driver.start_pose`` is the pose to ``reset`` the env to (or ``None`` for the
+env's default start).
 
 - :class:`LawnMowerDriver`: the paper's grid-like joystick trajectory (<= 0.4 m/s): a sweep of
   the arena in rows (and/or columns), with turns on the spot at the row ends, optionally rotating
@@ -33,10 +37,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym._types import Pose
+from sfa_gym.geometry import Rectangle, check_rectangle, grow_rectangle
 from sfa_gym.recording.ordering import grid_order
 
 __all__ = [
     "Bounds",
+    "env_attribute",
     "Driver",
     "Goto",
     "Spin",
@@ -47,7 +53,7 @@ __all__ = [
     "GridPositions",
 ]
 
-Bounds = tuple[float, float, float, float]
+Bounds = Rectangle
 """Drivable area ``(xmin, xmax, ymin, ymax)`` in metres."""
 
 
@@ -56,22 +62,34 @@ def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def _check_bounds(bounds: Sequence[float]) -> Bounds:
-    try:
-        xmin, xmax, ymin, ymax = (float(b) for b in bounds)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"bounds must be (xmin, xmax, ymin, ymax) in metres, got {bounds!r}"
-        ) from None
-    if not (xmin < xmax and ymin < ymax):
-        raise ValueError(f"bounds must satisfy xmin < xmax and ymin < ymax, got {bounds!r}")
-    return xmin, xmax, ymin, ymax
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float | np.number) and not isinstance(value, bool)
 
 
 def _check_positive(name: str, value: float) -> float:
-    if not (isinstance(value, int | float | np.number) and value > 0 and math.isfinite(value)):
+    if not (_is_number(value) and value > 0 and math.isfinite(value)):
         raise ValueError(f"{name} must be a positive number, got {value!r}")
     return float(value)
+
+
+def _check_finite(name: str, value: float, *, low: float = -math.inf) -> float:
+    """``value`` as a float after checking it is a finite number ``>= low``."""
+    if not (_is_number(value) and math.isfinite(value) and value >= low):
+        bound = "a finite number" if low == -math.inf else f"a finite number >= {low:g}"
+        raise ValueError(f"{name} must be {bound}, got {value!r}")
+    return float(value)
+
+
+def env_attribute(env: Any, name: str) -> Any:
+    """The public attribute ``name`` of ``env`` or of the env inside its wrappers; ``None``
+    if there is none (or ``env`` is not a Gymnasium env)."""
+    get = getattr(env, "get_wrapper_attr", None)
+    if get is None:
+        return None
+    try:
+        return get(name)
+    except AttributeError:
+        return None
 
 
 def _pose(info: Mapping[str, Any]) -> tuple[float, float, float]:
@@ -105,7 +123,7 @@ class Driver:
         seed: int | np.random.Generator | None = None,
     ) -> None:
         """Plan a new drive in ``bounds`` (metres) with control period ``dt`` (seconds)."""
-        self.bounds_ = _check_bounds(bounds)
+        self.bounds_ = check_rectangle("bounds", bounds)
         self.dt_ = _check_positive("dt", dt)
         self.rng_ = np.random.default_rng(seed)
         self._start()
@@ -192,6 +210,18 @@ class WaypointDriver(Driver):
         turn_in_place: float = 0.5,
     ) -> None:
         self.waypoints = waypoints
+        self._steer(
+            speed=speed, turn_rate=turn_rate, tolerance=tolerance, turn_in_place=turn_in_place
+        )
+
+    def _steer(
+        self, *, speed: float, turn_rate: float, tolerance: float, turn_in_place: float
+    ) -> None:
+        """Store the steering arguments that every waypoint driver takes (checked on reset).
+
+        Subclasses repeat them in their signatures, as scikit-learn estimators do, so that
+        :meth:`get_params` and ``help()`` see every argument, and store them here.
+        """
         self.speed = speed
         self.turn_rate = turn_rate
         self.tolerance = tolerance
@@ -308,10 +338,6 @@ def _crosses(p: tuple[float, float], q: tuple[float, float], rect: Bounds) -> bo
     return t1 - t0 > 1e-9
 
 
-def _inside(p: tuple[float, float], rect: Bounds) -> bool:
-    return rect[0] < p[0] < rect[1] and rect[2] < p[1] < rect[3]
-
-
 def _route(
     p: tuple[float, float], q: tuple[float, float], rect: Bounds, area: Bounds
 ) -> list[tuple[float, float]]:
@@ -357,18 +383,6 @@ def _route(
     return path[::-1]
 
 
-def _check_exclude(exclude: Sequence[float] | None, clearance: float) -> Bounds | None:
-    if exclude is None:
-        return None
-    try:
-        x0, x1, y0, y1 = _check_bounds(exclude)
-    except ValueError:
-        raise ValueError(
-            f"exclude must be a rectangle (xmin, xmax, ymin, ymax) in metres, got {exclude!r}"
-        ) from None
-    return x0 - clearance, x1 + clearance, y0 - clearance, y1 + clearance
-
-
 class LawnMowerDriver(WaypointDriver):
     """A lawn-mower sweep of the arena: the paper's grid-like trajectory at <= 0.4 m/s.
 
@@ -406,10 +420,9 @@ class LawnMowerDriver(WaypointDriver):
         tolerance: float = 0.1,
         turn_in_place: float = 0.5,
     ) -> None:
-        self.speed = speed
-        self.turn_rate = turn_rate
-        self.tolerance = tolerance
-        self.turn_in_place = turn_in_place
+        self._steer(
+            speed=speed, turn_rate=turn_rate, tolerance=tolerance, turn_in_place=turn_in_place
+        )
         self.spacing = spacing
         self.margin = margin
         self.offset = offset
@@ -422,15 +435,17 @@ class LawnMowerDriver(WaypointDriver):
         spacing = _check_positive("spacing", self.spacing)
         if self.pattern not in ("rows", "columns", "grid"):
             raise ValueError(f"pattern must be 'rows', 'columns' or 'grid', got {self.pattern!r}")
-        if self.margin < 0 or self.clearance < 0:
-            raise ValueError(
-                f"margin and clearance must be >= 0, got {self.margin!r}, {self.clearance!r}"
-            )
+        _check_finite("margin", self.margin, low=0.0)
+        _check_finite("clearance", self.clearance, low=0.0)
+        _check_finite("offset", self.offset)
+        _check_finite("spin", self.spin)
         xmin, xmax, ymin, ymax = self.bounds_
         area = (xmin + self.margin, xmax - self.margin, ymin + self.margin, ymax - self.margin)
         if area[0] >= area[1] or area[2] >= area[3]:
             raise ValueError(f"margin {self.margin} leaves no room inside bounds {self.bounds_}")
-        rect = _check_exclude(self.exclude, self.clearance)
+        rect = None
+        if self.exclude is not None:
+            rect = grow_rectangle(check_rectangle("exclude", self.exclude), self.clearance)
         lines: list[list[tuple[float, float]]] = []
         if self.pattern in ("rows", "grid"):
             lines += self._sweep(area, rect, spacing, along_x=True)
@@ -515,10 +530,9 @@ class LoopDriver(WaypointDriver):
         tolerance: float = 0.1,
         turn_in_place: float = 0.5,
     ) -> None:
-        self.speed = speed
-        self.turn_rate = turn_rate
-        self.tolerance = tolerance
-        self.turn_in_place = turn_in_place
+        self._steer(
+            speed=speed, turn_rate=turn_rate, tolerance=tolerance, turn_in_place=turn_in_place
+        )
         self.insets = insets
         self.clockwise = clockwise
         self.laps = laps
@@ -530,8 +544,9 @@ class LoopDriver(WaypointDriver):
         plan: list[Goto | Spin] = []
         for _ in range(self.laps):
             for inset in self.insets:
+                inset = _check_finite("inset", inset, low=0.0)
                 x0, x1, y0, y1 = xmin + inset, xmax - inset, ymin + inset, ymax - inset
-                if inset < 0 or x0 >= x1 or y0 >= y1:
+                if x0 >= x1 or y0 >= y1:
                     raise ValueError(
                         f"inset {inset!r} must be >= 0 and leave room inside bounds {self.bounds_}"
                     )
@@ -593,13 +608,15 @@ class RandomWalkDriver(Driver):
     def _start(self) -> None:
         for name in ("speed", "turn_rate", "turn_duration", "straight_duration"):
             _check_positive(name, getattr(self, name))
-        if not 0.0 <= self.turn_probability <= 1.0:
+        if not (_is_number(self.turn_probability) and 0.0 <= self.turn_probability <= 1.0):
             raise ValueError(f"turn_probability must lie in [0, 1], got {self.turn_probability!r}")
         for name in ("turn_duration", "straight_duration"):
             if getattr(self, name) < self.dt_:
                 raise ValueError(f"{name} must be >= dt = {self.dt_} s, got {getattr(self, name)}")
         xmin, xmax, ymin, ymax = self.bounds_
-        if not 0.0 <= self.margin < 0.5 * min(xmax - xmin, ymax - ymin):
+        if not (
+            _is_number(self.margin) and 0.0 <= self.margin < 0.5 * min(xmax - xmin, ymax - ymin)
+        ):
             raise ValueError(f"margin {self.margin!r} leaves no room inside bounds {self.bounds_}")
         self.mode_: Literal["turn", "straight", "avoid"] = "straight"
         self._steps_left = 0
@@ -691,7 +708,8 @@ class GridPositions:
         """The poses ``(n*n, 3)`` as ``(x, y, yaw)`` (metres, radians), in visiting order.
 
         Args:
-            source: an env whose ``unwrapped.grid_positions(n)`` gives the positions, or bounds
+            source: an env whose ``grid_positions(n)`` gives the positions (through its
+                wrappers, see :func:`env_attribute`), or bounds
                 ``(xmin, xmax, ymin, ymax)``: then the positions are the centres of the ``n x n``
                 cells dividing them.
         """
@@ -701,16 +719,16 @@ class GridPositions:
             raise ValueError(
                 f"order must be 'raster', 'serpentine' or 'hilbert', got {self.order!r}"
             )
-        unwrapped = getattr(source, "unwrapped", None)
-        if unwrapped is not None and hasattr(unwrapped, "grid_positions"):
-            xy = np.asarray(unwrapped.grid_positions(self.n), dtype=np.float64)
+        grid_positions = env_attribute(source, "grid_positions")
+        if grid_positions is not None:
+            xy = np.asarray(grid_positions(self.n), dtype=np.float64)
             if xy.shape != (self.n * self.n, 2):
                 raise ValueError(
-                    f"{type(unwrapped).__name__}.grid_positions({self.n}) returned shape "
+                    f"{source}.grid_positions({self.n}) returned shape "
                     f"{xy.shape}, expected ({self.n * self.n}, 2)"
                 )
         else:
-            xmin, xmax, ymin, ymax = _check_bounds(source)
+            xmin, xmax, ymin, ymax = check_rectangle("bounds", source)
             fraction = (np.arange(self.n) + 0.5) / self.n
             gx, gy = np.meshgrid(xmin + fraction * (xmax - xmin), ymin + fraction * (ymax - ymin))
             xy = np.stack([gx.ravel(), gy.ravel()], axis=1)

@@ -1,12 +1,24 @@
-"""Recording and replaying runs: the loop that drives an env and writes a run file."""
+"""Recording and replaying runs: the loop that drives an env and writes a run file.
+
+:func:`record` checks everything it can before it writes anything (the output path, the counts,
+the env's spaces and attributes, the driver's arguments by planning its drive, the header as
+strict JSON), so a refused call leaves no directory behind that would block the corrected one;
+the run directory and its header appear with the first chunk. An interruption by Ctrl-C
+(``KeyboardInterrupt``) or by SIGTERM (turned into ``SystemExit(143)`` while recording, when no
+other SIGTERM handler is installed) writes the buffered samples first, so that the run resumes
+from the last one.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
 import datetime
+import math
 import os
-from collections.abc import Callable, Mapping
+import signal
+import threading
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -16,8 +28,9 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 import sfa_gym
-from sfa_gym.recording.drivers import Driver, GridPositions
-from sfa_gym.recording.runfile import (  # noqa: E402
+from sfa_gym._files import strict_json
+from sfa_gym.recording.drivers import Driver, GridPositions, env_attribute
+from sfa_gym.recording.runfile import (
     _ARRAYS,
     _BOOKKEEPING,
     FORMAT,
@@ -30,6 +43,8 @@ from sfa_gym.recording.runfile import (  # noqa: E402
     _write_header,
     load_run,
 )
+
+__all__ = ["record", "RunMismatchError", "ReplayMismatchError"]
 
 # ------------------------------------------------------------------------- recording
 
@@ -62,31 +77,31 @@ def _jsonable(value: Any) -> Any:
 
 
 def _env_metadata(env: gym.Env) -> dict[str, Any]:
-    unwrapped = env.unwrapped
     spec = env.spec
-    bounds = getattr(unwrapped, "arena_bounds", None)
-    dt = _control_period(unwrapped)
-    world = getattr(unwrapped, "world", None)
+    bounds = env_attribute(env, "arena_bounds")
+    dt = _control_period(env)
+    world = env_attribute(env, "world")
     return _jsonable(
         {
-            "env_id": spec.id if spec is not None else type(unwrapped).__name__,
+            "env_id": spec.id if spec is not None else type(env.unwrapped).__name__,
             "env_kwargs": dict(spec.kwargs) if spec is not None else {},
             "world": getattr(world, "name", world),
-            "world_seed": getattr(unwrapped, "world_seed", None),
-            "panorama": getattr(unwrapped, "panorama", None),
+            "world_seed": env_attribute(env, "world_seed"),
+            "panorama": env_attribute(env, "panorama"),
             "arena_bounds": None if bounds is None else [float(b) for b in bounds],
-            "dt": None if dt is None else float(dt),
+            "dt": dt,
             "shape": list(env.observation_space.shape),
         }
     )
 
 
-def _control_period(unwrapped: gym.Env) -> float | None:
-    """Seconds per env step: ``control_dt`` (sfa_gym envs) or ``dt`` (Gymnasium MuJoCo envs)."""
-    for name in ("control_dt", "dt"):
-        value = getattr(unwrapped, name, None)
-        if isinstance(value, int | float) and value > 0:
-            return float(value)
+def _control_period(env: gym.Env) -> float | None:
+    """Seconds per env step: ``dt`` (the Gymnasium convention) or ``control_dt``."""
+    for name in ("dt", "control_dt"):
+        value = env_attribute(env, name)
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            if math.isfinite(value) and value > 0:
+                return float(value)
     return None
 
 
@@ -103,7 +118,11 @@ def _pose_seed(seed: int, index: int) -> int:
 
 
 class _Writer:
-    """Buffers samples and writes them as chunks, rewriting the header after each."""
+    """Buffers samples and writes them as chunks, rewriting the header after each.
+
+    The directory and the header are created with the first chunk (or at :meth:`finish`), so
+    nothing is written before there is something to keep.
+    """
 
     def __init__(
         self,
@@ -118,27 +137,37 @@ class _Writer:
         self.chunk_size = chunk_size
         self.compress = compress
         self.on_chunk = on_chunk
-        self.buffer: dict[str, list[Any]] = {name: [] for name in _ARRAYS}
+        # one tuple per sample, appended in one step: an interruption (Ctrl-C, SIGTERM) at any
+        # point leaves whole samples to flush
+        self.samples: list[tuple[NDArray[np.uint8], NDArray[np.float64], float, Any]] = []
 
     def add(self, obs: Any, pose: NDArray[np.float64], time: float, action: Any) -> None:
-        self.buffer["panoramas"].append(np.asarray(obs, dtype=np.uint8))
-        self.buffer["poses"].append(pose)
-        self.buffer["time"].append(time)
-        self.buffer["actions"].append(np.asarray(action, dtype=np.float32))
-        if len(self.buffer["poses"]) >= self.chunk_size:
+        sample = (
+            np.asarray(obs, dtype=np.uint8),
+            pose,
+            time,
+            np.asarray(action, dtype=np.float32),
+        )
+        self.samples.append(sample)
+        if len(self.samples) >= self.chunk_size:
             self.flush()
 
     def flush(self) -> None:
-        n = len(self.buffer["poses"])
+        n = len(self.samples)
         if n == 0:
             return
-        arrays = {name: np.asarray(self.buffer[name], dtype=_ARRAYS[name][0]) for name in _ARRAYS}
+        columns = zip(*self.samples[:n], strict=True)
+        arrays = {
+            name: np.asarray(column, dtype=dtype)
+            for (name, (dtype, _)), column in zip(_ARRAYS.items(), columns, strict=True)
+        }
+        self.directory.mkdir(parents=True, exist_ok=True)
         name = f"chunk-{len(self.header['chunks']):05d}.npz"
-        _write_chunk(self.directory / name, arrays, self.compress)
-        self.header["chunks"].append({"file": name, "n": n})
+        digest = _write_chunk(self.directory / name, arrays, self.compress)
+        self.header["chunks"].append({"file": name, "n": n, "sha256": digest})
         self.header["n"] += n
         _write_header(self.directory, self.header)
-        self.buffer = {name: [] for name in _ARRAYS}
+        del self.samples[:n]
         if self.on_chunk is not None:
             self.on_chunk(self.header["n"])
 
@@ -146,6 +175,7 @@ class _Writer:
         self.flush()
         self.header["complete"] = True
         self.header["end_reason"] = end_reason
+        self.directory.mkdir(parents=True, exist_ok=True)
         _write_header(self.directory, self.header)
 
 
@@ -180,6 +210,83 @@ def _remove_temporaries(directory: Path) -> None:
             file.unlink()
 
 
+def _positive_int(name: str, value: Any, *, none: bool = False) -> None:
+    if value is None and none:
+        return
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+        expected = "a positive int or None" if none else "a positive int"
+        raise ValueError(f"{name} must be {expected}, got {value!r}")
+
+
+def _check_out_dir(directory: Path) -> None:
+    """Refuse an output path that cannot become a run directory, before anything is written."""
+    if directory.suffix != SUFFIX:
+        raise ValueError(
+            f"out_dir must be a directory named '<name>{SUFFIX}', got {str(directory)!r}"
+        )
+    if directory.exists() and not directory.is_dir():
+        raise ValueError(f"out_dir {str(directory)!r} exists and is not a directory")
+    parent = directory.absolute().parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise ValueError(f"out_dir {str(directory)!r} cannot be created: {parent} is a file")
+    if not os.access(directory if directory.is_dir() else parent, os.W_OK | os.X_OK):
+        raise ValueError(f"out_dir {str(directory)!r} cannot be written: permission denied")
+
+
+def _check_env(env: gym.Env, driver: Driver | GridPositions, seed: int) -> None:
+    """Check the env's spaces and plan the drive (which checks the driver's arguments)."""
+    space = env.observation_space
+    if not (
+        isinstance(space, gym.spaces.Box)
+        and space.dtype == np.uint8
+        and len(space.shape) == 3
+        and space.shape[2] == 3
+    ):
+        raise ValueError(
+            f"record needs an env whose observation space is a uint8 Box of shape (H, W, 3) "
+            f"(RGB panoramas), got {space}"
+        )
+    if isinstance(driver, GridPositions):
+        driver.poses(env)
+        return
+    space = env.action_space
+    if not (isinstance(space, gym.spaces.Box) and space.shape == (2,)):
+        raise ValueError(
+            f"a driver needs an env whose action space is a Box of shape (2,) = (v, w), got {space}"
+        )
+    bounds = env_attribute(env, "arena_bounds")
+    if bounds is None:
+        raise ValueError(f"{env} has no arena_bounds to drive in")
+    dt = _control_period(env)
+    if dt is None:
+        raise ValueError(f"{env} has no control period (dt or control_dt) in seconds")
+    driver.reset(bounds, dt=dt, seed=seed)
+
+
+@contextlib.contextmanager
+def _sigterm_raises() -> Iterator[None]:
+    """While recording, SIGTERM raises ``SystemExit(128 + SIGTERM)`` so that the buffered
+    samples are written as on Ctrl-C. Only where Python can install handlers (the main
+    thread) and only over the default action: a handler set by the caller is kept."""
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
+    ):
+        yield
+        return
+
+    def terminate(signum: int, frame: Any) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def record(
     env: str | gym.Env,
     driver: Driver | GridPositions,
@@ -203,18 +310,21 @@ def record(
     With :class:`~sfa_gym.recording.drivers.GridPositions`: one ``env.reset`` per pose (the first
     ``n_steps`` poses, or all), each with its own seed derived from ``seed``.
 
-    If ``out_dir`` already holds an incomplete run with the same settings, the recording
-    resumes (see the module docstring); a complete one is returned as it is.
+    Every argument is checked before anything is written (see the module docstring). If
+    ``out_dir`` already holds an incomplete run with the same settings, its chunks are checked
+    against their checksums and the recording resumes (see :mod:`.runfile`); a complete one is
+    returned as it is. Ctrl-C and SIGTERM keep the samples recorded so far.
 
     Args:
         env: a registered env id (made with ``gym.make(env, **env_kwargs)`` and closed at the
-            end) or an env; it must report ``x``, ``y``, ``yaw`` in ``info`` and have
-            ``unwrapped.arena_bounds`` for drivers.
+            end) or an env; it must report ``x``, ``y``, ``yaw`` in ``info``, observe
+            ``(H, W, 3)`` uint8 panoramas and, for drivers, offer ``arena_bounds`` and ``dt``
+            (or ``control_dt``), through its wrappers (``env.get_wrapper_attr``).
         driver: what to drive (or which poses to visit).
         out_dir: the run directory; its name must end with ``.run``.
         n_steps: number of samples to store (the reset counts as one); ``None``: until the
             driver is done (required for open-ended drivers) or all poses are visited.
-        seed: seed of the env resets and of the driver.
+        seed: seed of the env resets and of the driver, an int >= 0.
         chunk_size: samples per chunk file.
         compress: write chunks with ``np.savez_compressed`` (smaller, slower, not mappable).
         env_kwargs: keyword arguments for ``gym.make`` when ``env`` is an id.
@@ -223,21 +333,22 @@ def record(
         on_chunk: called with the number of stored samples after each chunk is written.
 
     Returns:
-        The recorded run, as :func:`load_run` returns it.
+        The recorded run, as :func:`~sfa_gym.recording.runfile.load_run` returns it.
 
     Raises:
+        ValueError: a bad argument, env or driver setting (nothing is written then), or a
+            non-finite number in the header.
         RunMismatchError: ``out_dir`` holds a run recorded with other settings.
+        RunFormatError: resuming found a damaged chunk.
         ReplayMismatchError: resuming did not reproduce the stored actions or poses.
+        SystemExit: SIGTERM arrived (after the samples so far were written).
     """
     directory = Path(out_dir)
-    if directory.suffix != SUFFIX:
-        raise ValueError(
-            f"out_dir must be a directory named '<name>{SUFFIX}', got {str(out_dir)!r}"
-        )
-    if not isinstance(chunk_size, int) or chunk_size < 1:
-        raise ValueError(f"chunk_size must be a positive int, got {chunk_size!r}")
-    if n_steps is not None and (not isinstance(n_steps, int) or n_steps < 1):
-        raise ValueError(f"n_steps must be a positive int or None, got {n_steps!r}")
+    _check_out_dir(directory)
+    _positive_int("chunk_size", chunk_size)
+    _positive_int("n_steps", n_steps, none=True)
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"seed must be an int >= 0, got {seed!r}")
     if not isinstance(driver, Driver | GridPositions):
         raise TypeError(
             "driver must be a sfa_gym.recording.drivers.Driver or GridPositions, "
@@ -245,24 +356,26 @@ def record(
         )
     if isinstance(driver, Driver) and n_steps is None and type(driver).done is Driver.done:
         raise ValueError(f"{type(driver).__name__} never finishes: give n_steps")
+    if not isinstance(env, str) and env_kwargs:
+        raise ValueError("env_kwargs only apply when env is an id, not an env instance")
 
     owns_env = isinstance(env, str)
     if owns_env:
         # the run length is set here, not by the registered time limit
         limit = (n_steps or 0) + 10**9
         env = gym.make(env, max_episode_steps=limit, **dict(env_kwargs or {}))
-    elif env_kwargs:
-        raise ValueError("env_kwargs only apply when env is an id, not an env instance")
     try:
+        _check_env(env, driver, seed)
         wanted = {
             "format": FORMAT,
             "version": VERSION,
             "kind": "poses" if isinstance(driver, GridPositions) else "trajectory",
             **_env_metadata(env),
-            "seed": seed,
+            "seed": int(seed),
             "driver": _jsonable(driver.describe()),
             "n_steps": n_steps,
         }
+        strict_json(wanted)  # a NaN in a setting is refused now, not after recording
         if overwrite and directory.is_dir():
             _clear(directory)
         if (directory / HEADER).is_file():
@@ -271,8 +384,8 @@ def record(
                 return load_run(directory)
             _remove_temporaries(directory)
             stored = load_run(directory)
+            stored.verify()
         else:
-            directory.mkdir(parents=True, exist_ok=True)
             header = {
                 **wanted,
                 "sfa_gym_version": sfa_gym.__version__,
@@ -282,21 +395,21 @@ def record(
                 "complete": False,
                 "end_reason": None,
             }
-            _write_header(directory, header)
             stored = None
         header["sfa_gym_version"] = sfa_gym.__version__
         writer = _Writer(directory, header, chunk_size, compress, on_chunk)
-        try:
-            if isinstance(driver, GridPositions):
-                end = _record_poses(env, driver, writer, stored, n_steps, seed, progress)
-            else:
-                end = _record_drive(env, driver, writer, stored, n_steps, seed, progress)
-        except BaseException:
-            # the buffered samples are whole: keep them for a resume (if the disk lets us)
-            with contextlib.suppress(Exception):
-                writer.flush()
-            raise
-        writer.finish(end)
+        with _sigterm_raises():
+            try:
+                if isinstance(driver, GridPositions):
+                    end = _record_poses(env, driver, writer, stored, n_steps, seed, progress)
+                else:
+                    end = _record_drive(env, driver, writer, stored, n_steps, seed, progress)
+            except BaseException:
+                # the buffered samples are whole: keep them for a resume (if the disk lets us)
+                with contextlib.suppress(Exception):
+                    writer.flush()
+                raise
+            writer.finish(end)
     finally:
         if owns_env:
             env.close()
@@ -336,12 +449,10 @@ def _record_drive(
     seed: int,
     progress: bool,
 ) -> str:
-    bounds = getattr(env.unwrapped, "arena_bounds", None)
-    if bounds is None:
-        raise ValueError(f"{env.unwrapped} has no arena_bounds to drive in")
-    dt = _control_period(env.unwrapped)
-    if dt is None:
-        raise ValueError(f"{env.unwrapped} has no control period (control_dt or dt) in seconds")
+    bounds = env_attribute(env, "arena_bounds")
+    dt = _control_period(env)
+    if bounds is None or dt is None:  # checked by _check_env
+        raise ValueError(f"{env} has no arena_bounds or no control period")
     space = env.action_space
     low, high = space.low.astype(np.float32), space.high.astype(np.float32)
     driver.reset(bounds, dt=dt, seed=seed)

@@ -23,7 +23,7 @@ A run is a directory ``<name>.run/`` holding
      "arena_bounds": [xmin, xmax, ymin, ymax], "dt": seconds per step,
      "seed": ..., "driver": {"type": ..., ...its arguments}, "n_steps": requested N or null,
      "shape": [H, W, 3], "sfa_gym_version": ..., "created": ISO time,
-     "chunks": [{"file": "chunk-00000.npz", "n": 500}, ...],
+     "chunks": [{"file": "chunk-00000.npz", "n": 500, "sha256": "9f86d0..."}, ...],
      "n": total samples in the chunks, "complete": false | true,
      "end_reason": null | "n_steps" | "driver_done" | "terminated" | "truncated"}
 
@@ -32,34 +32,43 @@ A run is a directory ``<name>.run/`` holding
   the four arrays ``panoramas``, ``poses``, ``time``, ``actions``, with ``n`` rows each and the
   dtypes above; no pickled objects (read with ``allow_pickle=False``).
 
-Every file is written atomically (a temporary file in the same directory, fsync, ``os.replace``)
-and the header is rewritten after each chunk, so an interrupted recording leaves a valid,
-``"complete": false`` run of whole chunks. :func:`record` resumes it: it resets the env with the
-same seed, replays the stored actions (checking that driver and physics reproduce the stored
-actions and poses) and continues. Files other than the header and listed chunks are ignored.
+Each chunk entry may carry ``"sha256"``, the SHA-256 of the chunk file (hex). It was added
+without a version bump: runs written before have no checksums and load as before (unchecked),
+and older readers ignore the key. Every file is written atomically
+(:func:`sfa_gym._files.write_atomic`: a temporary file in the same directory, fsync,
+``os.replace``), the header as strict JSON (no NaN or infinity), and the header is rewritten
+after each chunk, so an interrupted recording leaves a valid, ``"complete": false`` run of whole
+chunks. :func:`~sfa_gym.recording.recorder.record` resumes it: it resets the env with the same
+seed, replays the stored actions (checking that driver and physics reproduce the stored actions
+and poses) and continues. Files other than the header and listed chunks are ignored.
 
 :func:`load_run` reads a run; the panoramas of uncompressed chunks are memory-mapped, so a
-5900-sample 600x60 run (640 MB) opens instantly and is read from disk as it is indexed.
+5900-sample 600x60 run (640 MB) opens instantly and is read from disk as it is indexed. A
+memory map skips the zip's own CRC, so the checksums are verified instead: each chunk file is
+hashed the first time its panoramas are read (about 1.5 GB/s), and :meth:`Run.verify` checks all
+chunks at once; a chunk whose bytes changed raises :class:`RunFormatError` naming it.
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
+import hashlib
+import io
 import json
 import math
 import os
+import re
 import struct
-import tempfile
 import zipfile
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 import sfa_gym
+from sfa_gym._files import write_atomic, write_json_atomic
 
 __all__ = [
     "FORMAT",
@@ -82,6 +91,7 @@ _ARRAYS: dict[str, tuple[np.dtype, str | tuple[int, ...]]] = {
     "time": (np.dtype(np.float64), ()),
     "actions": (np.dtype(np.float32), (2,)),
 }
+_SHA256 = re.compile(r"[0-9a-f]{64}")
 # header keys that describe the recording itself; everything else must match to resume
 _BOOKKEEPING = {"sfa_gym_version", "created", "chunks", "n", "complete", "end_reason"}
 
@@ -93,39 +103,39 @@ class RunFormatError(ValueError):
 # ------------------------------------------------------------------------ chunk files
 
 
-def _fsync_dir(directory: Path) -> None:
-    # makes the rename durable; not possible on every platform
-    with contextlib.suppress(OSError):
-        fd = os.open(directory, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-
-
-def _write_atomic(path: Path, write: Callable[[IO[bytes]], None]) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as file:
-            write(file)
-            file.flush()
-            os.fsync(file.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
-    _fsync_dir(path.parent)
-
-
 def _write_header(directory: Path, header: Mapping[str, Any]) -> None:
-    text = json.dumps(header, indent=1).encode()
-    _write_atomic(directory / HEADER, lambda file: file.write(text))
+    write_json_atomic(directory / HEADER, header)
 
 
-def _write_chunk(path: Path, arrays: Mapping[str, NDArray[Any]], compress: bool) -> None:
+def _write_chunk(path: Path, arrays: Mapping[str, NDArray[Any]], compress: bool) -> str:
+    """Write one chunk atomically; return the SHA-256 (hex) of the bytes written."""
     save = np.savez_compressed if compress else np.savez
-    _write_atomic(path, lambda file: save(file, **arrays))
+    # serialised in memory first, so that the checksum is that of what was meant to be written
+    buffer = io.BytesIO()
+    save(buffer, **arrays)
+    data = buffer.getbuffer()
+    write_atomic(path, lambda file: file.write(data))
+    return hashlib.sha256(data).hexdigest()
+
+
+def _file_sha256(path: Path) -> str:
+    try:
+        with open(path, "rb") as file:
+            return hashlib.file_digest(file, "sha256").hexdigest()
+    except OSError as error:
+        raise RunFormatError(f"chunk {path} cannot be read: {error}") from None
+
+
+def _verify_chunk(path: Path, expected: str | None) -> None:
+    """Compare the chunk file's SHA-256 with the header's (``None``: a run without checksums)."""
+    if expected is None:
+        return
+    found = _file_sha256(path)
+    if found != expected:
+        raise RunFormatError(
+            f"chunk {path} is corrupted: its SHA-256 is {found}, but {HEADER} records "
+            f"{expected}; record the run again (load_run(..., verify=False) reads it unchecked)"
+        )
 
 
 def _member_header(zf: zipfile.ZipFile, member: str) -> tuple[tuple[int, ...], np.dtype, int]:
@@ -213,6 +223,8 @@ class ChunkedPanoramas:
     Indexing with an int, a slice, an integer or boolean array returns a numpy array and reads
     only the chunks involved (memory-mapped where uncompressed; a compressed chunk is decoded
     once and cached until another one is needed). ``np.asarray(panoramas)`` loads everything.
+    Before a chunk's panoramas are first returned, its file is checked against its SHA-256
+    (``checksums[c]``; ``None`` skips the check).
     """
 
     def __init__(
@@ -221,9 +233,12 @@ class ChunkedPanoramas:
         counts: list[int],
         obs_shape: tuple[int, ...],
         maps: list[np.memmap | None],
+        checksums: list[str | None] | None = None,
     ) -> None:
         self._files = files
         self._maps = maps
+        self._checksums = checksums or [None] * len(files)
+        self._verified = [digest is None for digest in self._checksums]
         self._starts = np.concatenate([[0], np.cumsum(counts, dtype=np.int64)])
         self.shape = (int(self._starts[-1]), *obs_shape)
         self.dtype = np.dtype(np.uint8)
@@ -238,8 +253,20 @@ class ChunkedPanoramas:
     def __repr__(self) -> str:
         return f"ChunkedPanoramas(shape={self.shape}, chunks={len(self._files)})"
 
+    def verify(self, c: int | None = None) -> None:
+        """Check chunk ``c`` (all chunks if ``None``) against its checksum, once per chunk.
+
+        Raises:
+            RunFormatError: a chunk file's bytes differ from those recorded; names the chunk.
+        """
+        for i in range(len(self._files)) if c is None else (c,):
+            if not self._verified[i]:
+                _verify_chunk(self._files[i], self._checksums[i])
+                self._verified[i] = True
+
     def chunk(self, c: int) -> NDArray[np.uint8]:
         """The panoramas of chunk ``c``, ``(n_c, H, W, 3)`` (memory-mapped or decoded)."""
+        self.verify(c)
         if self._maps[c] is not None:
             return self._maps[c]
         if self._cached is None or self._cached[0] != c:
@@ -309,6 +336,15 @@ class Run:
     def __len__(self) -> int:
         return len(self.poses)
 
+    def verify(self) -> None:
+        """Check every chunk file against the checksum in the header now (reads the whole run;
+        otherwise each chunk is checked when its panoramas are first read).
+
+        Raises:
+            RunFormatError: a chunk's bytes differ from those recorded; the message names it.
+        """
+        self.panoramas.verify()
+
     @property
     def positions(self) -> NDArray[np.float64]:
         """``(N, 2)`` float64 ``(x, y)`` in metres."""
@@ -349,15 +385,26 @@ def _read_header(directory: Path) -> dict[str, Any]:
         name = c["file"]
         if not isinstance(name, str) or Path(name).name != name or not isinstance(c["n"], int):
             raise RunFormatError(f"{path}: bad chunk entry {c!r}")
+        digest = c.get("sha256")
+        if digest is not None and not (isinstance(digest, str) and _SHA256.fullmatch(digest)):
+            raise RunFormatError(
+                f"{path}: chunk {name!r} has sha256 {digest!r}, expected 64 hex digits"
+            )
     return header
 
 
-def load_run(path: str | os.PathLike[str]) -> Run:
-    """Open a run directory written by :func:`record`.
+def load_run(path: str | os.PathLike[str], *, verify: bool = True) -> Run:
+    """Open a run directory written by :func:`~sfa_gym.recording.recorder.record`.
 
     Checks the header (format name, version), that every listed chunk exists and holds exactly
     the expected arrays with the right shapes and dtypes; panoramas of uncompressed chunks are
     memory-mapped, compressed ones are decoded on access.
+
+    Args:
+        path: the ``<name>.run`` directory.
+        verify: check each chunk against the SHA-256 in the header before its panoramas are
+            first read (runs without checksums are not checked); :meth:`Run.verify` checks
+            all chunks at once. ``False`` reads a damaged run as it is.
 
     Raises:
         FileNotFoundError: ``path`` does not exist.
@@ -366,10 +413,11 @@ def load_run(path: str | os.PathLike[str]) -> Run:
     directory = Path(path)
     header = _read_header(directory)
     obs_shape = tuple(int(s) for s in header["shape"])
-    files, counts, maps, parts = [], [], [], []
+    files, counts, maps, parts, checksums = [], [], [], [], []
     for c in header["chunks"]:
         file = directory / c["file"]
         chunk = _read_chunk(file, int(c["n"]), obs_shape)
+        checksums.append(c.get("sha256") if verify else None)
         files.append(file)
         counts.append(int(c["n"]))
         maps.append(chunk["panoramas"])
@@ -388,7 +436,7 @@ def load_run(path: str | os.PathLike[str]) -> Run:
     metadata = {k: v for k, v in header.items() if k != "chunks"}
     return Run(
         path=directory,
-        panoramas=ChunkedPanoramas(files, counts, obs_shape, maps),
+        panoramas=ChunkedPanoramas(files, counts, obs_shape, maps, checksums),
         poses=stacked("poses"),
         time=stacked("time"),
         actions=stacked("actions"),

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 from typing import Any
 
 import numpy as np
@@ -22,33 +21,6 @@ from sfa_gym.sim.camera import PanoramaSpec  # noqa: E402
 from sfa_gym.sim.camera.renderer import OmniCamera  # noqa: E402
 from sfa_gym.sim.rover import WHEELS, RoverSpec, rover_mjcf, yaw_of_quat  # noqa: E402
 from sfa_gym.sim.worlds import WorldSpec, build_world, load_world_spec  # noqa: E402
-
-# A process forked after it used OpenGL inherits a GL driver whose worker threads did not
-# survive the fork: rendering in the child hangs. Detect it and fail with advice instead.
-_gl_used = False
-_forked_after_gl = False
-
-
-def _mark_fork_in_child() -> None:
-    global _forked_after_gl
-    egl = sys.modules.get("mujoco.egl")
-    if _gl_used or (egl is not None and getattr(egl, "EGL_DISPLAY", None) is not None):
-        _forked_after_gl = True
-
-
-os.register_at_fork(after_in_child=_mark_fork_in_child)
-
-
-def _check_gl_usable() -> None:
-    global _gl_used
-    if _forked_after_gl:
-        raise RuntimeError(
-            "this process was forked from one that had already rendered with OpenGL, and "
-            "rendering here would hang; start vector-env workers with 'spawn' or 'forkserver': "
-            "gym.make_vec(..., vectorization_mode='async', vector_kwargs={'context': 'spawn'})"
-        )
-    _gl_used = True
-
 
 _PANORAMA_PRESETS = {
     "paper_sim": PanoramaSpec.paper_sim,
@@ -144,9 +116,14 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     * ``render_mode`` (None): None or "rgb_array" (a top-down view of the arena).
     * ``render_size`` (256): side of the square top-down render, pixels.
 
-    ``env.unwrapped`` also offers :attr:`arena_bounds` and :meth:`grid_positions` for drivers,
-    and ``model``, ``data`` (MuJoCo), ``mjcf`` (the model's text) and ``layout`` (where the
-    landmarks and obstacles stand).
+    The env also offers :attr:`dt` (seconds per step), :attr:`arena_bounds` and
+    :meth:`grid_positions` for drivers, and ``model``, ``data`` (MuJoCo), ``mjcf`` (the model's
+    text) and ``layout`` (where the landmarks and obstacles stand); through wrappers, read them
+    with ``env.get_wrapper_attr("arena_bounds")``.
+
+    A ``panorama`` or ``render_size`` that needs a larger offscreen buffer than OpenGL supports
+    (:data:`sfa_gym.sim.gl.MAX_FRAMEBUFFER_SIDE` pixels a side) is refused here, with the size
+    and the limit.
 
     ## Vector envs
 
@@ -206,6 +183,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         self.render_mode = render_mode
         if isinstance(render_size, bool) or not isinstance(render_size, int) or render_size < 1:
             raise ValueError(f"render_size must be a positive int, got {render_size!r}")
+        gl.check_framebuffer(render_size, render_size, f"render_size={render_size}")
         self.render_size = render_size
 
         self.world_spec = world if isinstance(world, WorldSpec) else load_world_spec(world)
@@ -247,6 +225,11 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         self.observation_space = spaces.Box(
             0, 255, shape=(panorama.height, panorama.width, 3), dtype=np.uint8
         )
+
+    @property
+    def dt(self) -> float:
+        """Simulated seconds per env step (``control_dt``), the Gymnasium convention."""
+        return self.control_dt
 
     # -- helpers for drivers -------------------------------------------------------------------
 
@@ -348,7 +331,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         else:
             pose = self._random_pose()
         self._place(*pose)
-        _check_gl_usable()
+        gl.check_usable()
         return self._camera.render(self.data), self._info()
 
     def step(
@@ -364,7 +347,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         left, right = self.rover.wheel_speeds(v, w)
         self.data.ctrl[self._actuators] = (left, left, right, right)
         mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
-        _check_gl_usable()
+        gl.check_usable()
         return self._camera.render(self.data), 0.0, False, False, self._info()
 
     def render(self) -> NDArray[np.uint8] | None:
@@ -375,9 +358,12 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
                 "render() was called without a render_mode; pass render_mode='rgb_array'"
             )
             return None
-        _check_gl_usable()
+        gl.check_usable()
         if self._renderer is None:
-            self._renderer = mujoco.Renderer(self.model, self.render_size, self.render_size)
+            size = self.render_size
+            # a driver of this process may have reported a smaller limit than the constant
+            gl.check_framebuffer(size, size, f"render_size={size}")
+            self._renderer = mujoco.Renderer(self.model, size, size)
         self._renderer.update_scene(self.data, camera="overhead")
         return self._renderer.render()
 

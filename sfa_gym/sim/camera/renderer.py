@@ -3,10 +3,8 @@ once and resampled onto the panorama with the remap tables of :mod:`.projection`
 
 from __future__ import annotations
 
-import atexit
 import math
 import os
-import weakref
 from typing import Any
 
 import cv2
@@ -29,32 +27,6 @@ from sfa_gym.sim.camera.projection import (  # noqa: E402
 )
 
 __all__ = ["OmniCamera"]
-
-# Cameras with a live GL context, freed at exit while the GL bindings still work (freeing them
-# during interpreter teardown makes PyOpenGL print errors).
-_LIVE_CAMERAS: weakref.WeakSet[OmniCamera] = weakref.WeakSet()
-
-
-@atexit.register
-def _close_live_cameras() -> None:
-    for camera in list(_LIVE_CAMERAS):
-        try:
-            camera.close()
-        except Exception:
-            pass
-
-
-_OWNED_GL_CONTEXT: type | None = None
-
-
-def _new_gl_context(width: int, height: int) -> Any:
-    """A ``mujoco.GLContext`` whose lifetime :meth:`OmniCamera.close` manages alone (its own
-    ``__del__`` would free it again, possibly during interpreter teardown)."""
-    global _OWNED_GL_CONTEXT
-    if _OWNED_GL_CONTEXT is None:
-        base = mujoco.GLContext
-        _OWNED_GL_CONTEXT = type(f"_Owned{base.__name__}", (base,), {"__del__": lambda self: None})
-    return _OWNED_GL_CONTEXT(width, height)
 
 
 def _smooth_skyboxes(model: mujoco.MjModel) -> list[int]:
@@ -189,7 +161,8 @@ class OmniCamera:
         prefix: camera name prefix used with :func:`camera_mjcf`.
     Raises:
         ValueError: a camera is missing or its fovy, orientation or placement does not match
-            ``camera_mjcf(spec, prefix)``.
+            ``camera_mjcf(spec, prefix)``; or the views need an offscreen buffer larger than
+            OpenGL supports (the message gives the size and the limit).
     """
 
     def __init__(self, model: mujoco.MjModel, spec: PanoramaSpec, prefix: str = "omni") -> None:
@@ -204,6 +177,8 @@ class OmniCamera:
         self._cam_ids = _find_cameras(model, spec, prefix)
         self._layout = _layout(spec, float(model.cam_fovy[self._cam_ids[0]]))
         lay = self._layout
+        # here, not at the first render: MuJoCo would fail there with a FatalError
+        gl.check_framebuffer(lay.buffer_w, lay.buffer_h, str(spec))
         self._tan_half = ((lay.view_w / 2.0) / lay.focal, (lay.view_h / 2.0) / lay.focal)
         self._map_x: NDArray[Any] | None = None
         self._map_y: NDArray[Any] | None = None
@@ -215,19 +190,13 @@ class OmniCamera:
     # -- GL resources ---------------------------------------------------------------------------
 
     def _ensure_context(self) -> None:
-        pid = os.getpid()
-        if self._owner_pid is not None and self._owner_pid != pid:
-            raise RuntimeError(
-                f"this OmniCamera was first rendered in process {self._owner_pid}; OpenGL does "
-                "not survive fork: create the env in the worker or start workers with the "
-                "'spawn' or 'forkserver' method"
-            )
+        gl.check_owner(self._owner_pid, "OmniCamera")
         if self._con is not None:
+            gl.check_usable()
             self._gl.make_current()
             return
         lay, vis = self._layout, self.model.vis
-        gl_context = _new_gl_context(lay.buffer_w, lay.buffer_h)
-        gl_context.make_current()
+        gl_context = gl.new_context(lay.buffer_w, lay.buffer_h, str(self.spec))
         # MjrContext sizes its offscreen buffer from the model. No MSAA: supersampling is
         # cheaper on a CPU rasteriser.
         saved = (vis.global_.offwidth, vis.global_.offheight, vis.quality.offsamples)
@@ -255,8 +224,8 @@ class OmniCamera:
             # within a grey level of the same pixels).
             self._smooth_skies = []
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, con)
-        self._gl, self._con, self._owner_pid = gl_context, con, pid
-        _LIVE_CAMERAS.add(self)
+        self._gl, self._con, self._owner_pid = gl_context, con, os.getpid()
+        gl.track(self)
         self._init_scene()
 
     def _init_scene(self) -> None:
@@ -414,7 +383,7 @@ class OmniCamera:
         """
         con, gl_context = self._con, self._gl
         self._con = self._gl = None
-        _LIVE_CAMERAS.discard(self)
+        gl.untrack(self)
         if self._owner_pid != os.getpid():
             return  # nothing created, or inherited through fork: the parent's to free
         self._owner_pid = None

@@ -3,15 +3,13 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from sfa_gym.sim.worlds.spec import (  # noqa: E402
-    ColourRange,
-    SurfaceSpec,
-    WorldSpec,
-)
+from sfa_gym.sim.worlds.spec import ColourRange, SurfaceSpec, WorldSpec
 
 
 @dataclass(frozen=True)
@@ -133,6 +131,26 @@ def _square_distance(azimuth: float, hx: float, hy: float) -> float:
     return min(hx / c if c > 1e-9 else math.inf, hy / s if s > 1e-9 else math.inf)
 
 
+Circle = tuple[float, float, float]
+"""``(x, y, radius)`` of a footprint's bounding circle, metres."""
+
+
+def _place(
+    draw: Callable[[], tuple[float, float]],
+    radius: float,
+    placed: list[Circle],
+    min_gap: float,
+    attempts: int,
+) -> tuple[float, float] | None:
+    """The first of up to ``attempts`` points ``draw()`` whose circle of ``radius`` keeps
+    ``min_gap`` from every circle in ``placed``; ``None`` if none does. The caller appends it."""
+    for _ in range(attempts):
+        x, y = draw()
+        if all(math.hypot(x - px, y - py) >= radius + pr + min_gap for px, py, pr in placed):
+            return x, y
+    return None
+
+
 def _landmarks(b: _Builder) -> list[tuple[str, float, float, float]]:
     spec, rng = b.spec.landmarks, b.rng
     kinds = [k for k in spec.kinds for _ in range(k.count)]
@@ -141,29 +159,29 @@ def _landmarks(b: _Builder) -> list[tuple[str, float, float, float]]:
     hx = b.spec.arena.size[0] / 2 + b.spec.arena.wall_thickness
     hy = b.spec.arena.size[1] / 2 + b.spec.arena.wall_thickness
     offset = rng.uniform(0, 2 * math.pi)
-    placed: list[tuple[float, float, float]] = []
+    placed: list[Circle] = []
     out = []
     for slot, idx in enumerate(order):
         kind = kinds[idx]
         height = rng.uniform(*kind.height)
         width = rng.uniform(*kind.width)
         radius = width / 2 if kind.kind != "box" else width / math.sqrt(2)
+
         # One landmark per azimuth sector so that every viewing direction sees some; within
         # its sector the landmark moves until it clears the others.
-        for _ in range(100):
+        def in_sector(slot: int = slot, radius: float = radius) -> tuple[float, float]:
             az = offset + (slot + rng.uniform(0.1, 0.9)) * 2 * math.pi / n
             r = _square_distance(az, hx, hy) + spec.clearance + radius
             r += rng.uniform(0, spec.depth)
-            x, y = r * math.cos(az), r * math.sin(az)
-            if all(
-                math.hypot(x - px, y - py) >= radius + pr + spec.min_gap for px, py, pr in placed
-            ):
-                break
-        else:
+            return r * math.cos(az), r * math.sin(az)
+
+        point = _place(in_sector, radius, placed, spec.min_gap, attempts=100)
+        if point is None:
             raise ValueError(
                 f"cannot place {n} landmarks apart by min_gap {spec.min_gap}: "
                 "increase landmarks depth or reduce their counts or widths"
             )
+        x, y = point
         placed.append((x, y, radius))
         out.append((kind.kind, x, y, height))
         colour = kind.colours.draw(rng)
@@ -204,26 +222,26 @@ def _landmarks(b: _Builder) -> list[tuple[str, float, float, float]]:
     return out
 
 
-def _obstacles(b: _Builder) -> list[tuple[float, float, float]]:
+def _obstacles(b: _Builder) -> list[Circle]:
     spec, rng = b.spec.obstacles, b.rng
     xmin, xmax, ymin, ymax = b.spec.arena.bounds
-    placed: list[tuple[float, float, float]] = []
+    placed: list[Circle] = []
     for i in range(spec.count):
         kind = spec.kinds[int(rng.integers(len(spec.kinds)))]
         width, height = rng.uniform(*spec.width), rng.uniform(*spec.height)
         radius = width / 2 if kind == "cylinder" else width / math.sqrt(2)
         hx = b.spec.arena.size[0] / 2 - radius - spec.min_gap
         hy = b.spec.arena.size[1] / 2 - radius - spec.min_gap
-        for _ in range(1000):
-            x, y = rng.uniform(-hx, hx), rng.uniform(-hy, hy)
-            if all(
-                math.hypot(x - px, y - py) >= radius + pr + spec.min_gap for px, py, pr in placed
-            ):
-                break
-        else:
+
+        def in_arena(hx: float = hx, hy: float = hy) -> tuple[float, float]:
+            return rng.uniform(-hx, hx), rng.uniform(-hy, hy)
+
+        point = _place(in_arena, radius, placed, spec.min_gap, attempts=1000)
+        if point is None:
             raise ValueError(
                 f"cannot place {spec.count} obstacles apart by min_gap {spec.min_gap} in the arena"
             )
+        x, y = point
         placed.append((x, y, radius))
         mat = b.plain_material(spec.colours.draw(rng))
         shape = (
@@ -313,7 +331,8 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
     amb = spec.lights.ambient
     mjcf = "\n".join(
         [
-            f'<mujoco model="sfa_gym_{spec.name}_{int(world_seed)}">',
+            # the name is free text: quoted and escaped, it cannot end the attribute
+            f"<mujoco model={quoteattr(f'sfa_gym_{spec.name}_{int(world_seed)}')}>",
             '  <compiler angle="degree" autolimits="true"/>',
             # implicitfast keeps stiff wheel velocity servos stable at 5 ms steps; the noslip
             # pass stops a skid-steer rover from chattering (losing ground contact) in turns.

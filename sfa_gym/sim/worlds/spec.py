@@ -264,7 +264,8 @@ class SkySpec:
 class WorldSpec:
     """Everything that defines a family of worlds; one world seed picks one member.
 
-    Load one with :func:`load_world_spec`. Lengths in metres, angles in degrees.
+    Load one with :func:`load_world_spec`. Lengths in metres, angles in degrees. The
+    ``name`` is any text without control characters (it is escaped in the MJCF).
     """
 
     name: str
@@ -277,6 +278,13 @@ class WorldSpec:
     obstacles: ObstaclesSpec = ObstaclesSpec()
     lights: LightsSpec = LightsSpec()
     sky: SkySpec = SkySpec()
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"world name must be a non-empty string, got {self.name!r}")
+        # XML cannot carry control characters, even escaped
+        if any(ord(ch) < 32 or ord(ch) == 127 for ch in self.name):
+            raise ValueError(f"world name must not contain control characters, got {self.name!r}")
 
 
 def _convert(value: Any, hint: Any, where: str) -> Any:
@@ -342,7 +350,8 @@ def load_world_spec(world: str | os.PathLike[str]) -> WorldSpec:
     """Load a world spec by name (``"paper_sim"``) or from a path to a JSON file.
 
     Raises:
-        ValueError: no such world, or the file is not a valid spec (the message says where).
+        ValueError: no such world, or the file is not valid JSON or not a valid spec; the
+            message names the file and where in it (line and column, or the key).
     """
     path = Path(world)
     if path.suffix != ".json":
@@ -351,6 +360,19 @@ def load_world_spec(world: str | os.PathLike[str]) -> WorldSpec:
             raise ValueError(f"unknown world {str(world)!r}; available: {available_worlds()}")
     elif not path.is_file():
         raise ValueError(f"world spec file {str(path)!r} does not exist")
-    with open(path, encoding="utf-8") as f:
-        data = json.load(f)
-    return world_spec_from_dict(data)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as error:
+        raise ValueError(
+            f"world spec file {str(path)!r} is not valid JSON: {error.msg} at line "
+            f"{error.lineno}, column {error.colno}"
+        ) from None
+    except UnicodeDecodeError as error:
+        raise ValueError(
+            f"world spec file {str(path)!r} is not UTF-8 text: byte {error.start} is "
+            f"{error.object[error.start : error.start + 1]!r}"
+        ) from None
+    try:
+        return world_spec_from_dict(data)
+    except ValueError as error:
+        raise ValueError(f"world spec file {str(path)!r}: {error}") from None
