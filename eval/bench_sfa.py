@@ -1,10 +1,11 @@
 """Benchmark: our hierarchical SFA engine against MDP 3.6, and the paper's outdoor scale.
 
 Part 1, same architecture and data for both: the ``paper_sim`` preset (four layers) trained on
-``--frames`` views of 40 x 350 along a smooth path (seeded synthetic panoramas, or rendered by
-the env with ``--rendered``); per backend: training time per frame, peak memory, inference
-time per panorama, and the agreement of the eight slow features on held-out views (|corr| per
-output, and the canonical correlations of the two 8-d feature spaces).
+``--frames`` views of 40 x 350 along a smooth path (seeded synthetic panoramas of
+:mod:`sfa_gym.sfa.synthetic`, or rendered by the env with ``--rendered``); per backend: training
+time per frame, peak memory, inference time per panorama, and the agreement of the eight slow
+features on held-out views (|corr| per output, and the canonical correlations of the two 8-d
+feature spaces).
 
 Part 1b, the paper's training data: ``--rotation-locations`` panoramas of 40 x 350 along a
 smooth path, each seen in all its 70 rotated views (5 px steps), in the paper's order (all views
@@ -54,6 +55,8 @@ from numpy.typing import NDArray
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
+
+from sfa_gym.sfa.synthetic import landmark_panoramas, smooth_path  # noqa: E402
 
 N_OUTPUTS = 8
 LAYER_VIEWS = 50
@@ -115,78 +118,6 @@ class BenchConfig:
 
 
 # -- data ---------------------------------------------------------------------------------------
-def smooth_path(n: int, seed: int, half_size: float = 1.0) -> NDArray[np.float64]:
-    """``(n, 3)`` poses ``(x, y, yaw)`` along an open, smooth path in ``[-half_size, half_size]^2``.
-
-    The position is a sum of low-frequency sinusoids; the heading turns slowly (one half turn
-    over the path plus a small random walk), so views change smoothly from frame to frame.
-    """
-    rng = np.random.default_rng(seed)
-    s = np.linspace(0.0, 1.0, n)[:, None]
-    xy = np.zeros((n, 2))
-    for f in (1, 2, 3, 5, 8):
-        xy += rng.normal(0, 0.45 / f, 2) * np.sin(
-            1.3 * np.pi * f * s + rng.uniform(0, 2 * np.pi, 2)
-        )
-    xy = np.clip(xy, -1.0, 1.0) * half_size
-    yaw = np.pi * s[:, 0] + np.cumsum(rng.normal(0, 0.02, n))
-    return np.c_[xy, yaw]
-
-
-def synthetic_panoramas(
-    poses: NDArray[np.floating],
-    height: int,
-    width: int,
-    seed: int = 0,
-    n_landmarks: int = 24,
-    progress: bool = True,
-) -> NDArray[np.uint8]:
-    """Seeded synthetic panoramas ``(N, height, width, 3)`` uint8 at ``poses`` ``(N, 3)``.
-
-    ``n_landmarks`` blocks of random colour, width (0.15-0.6 m) and height (0.2-1.5 m) stand
-    1.8-4 m from the origin; the camera is 0.5 m above the ground with a 40 degree vertical
-    field of view. A block covers the columns within its angular half-width and the rows
-    between the ground and its top (soft edges, colours added) over a sky/ground gradient.
-    Gaussian pixel noise (sd 2, seeded) keeps patch covariances full rank. Column ``c`` looks
-    at azimuth ``yaw + 2*pi*c/width`` (periodic in width, as the env's panoramas).
-    """
-    from tqdm.auto import tqdm
-
-    poses = np.asarray(poses, dtype=np.float64)
-    rng = np.random.default_rng(seed)
-    ang, rad = rng.uniform(0, 2 * np.pi, n_landmarks), rng.uniform(1.8, 4.0, n_landmarks)
-    xy = np.c_[rad * np.cos(ang), rad * np.sin(ang)]
-    half = rng.uniform(0.15, 0.6, n_landmarks)
-    top = rng.uniform(0.2, 1.5, n_landmarks)
-    colour = rng.uniform(-120, 120, (n_landmarks, 3)).astype(np.float32)
-    elev = np.deg2rad(np.linspace(20.0, -20.0, height))
-    g = np.clip(elev / np.deg2rad(20.0), -1, 1)[:, None]
-    background = np.where(g >= 0, [140.0, 170.0, 210.0] + 40 * g, [110.0, 100.0, 80.0] + 40 * g)
-    soft_az, soft_el = 2 * np.pi / width, np.deg2rad(40.0) / height
-    noise = np.random.default_rng(seed + 1)
-    out = np.empty((len(poses), height, width, 3), dtype=np.uint8)
-    batch = max(1, 2_000_000 // (height * width))
-    for i0 in tqdm(range(0, len(poses), batch), desc="panoramas", disable=not progress):
-        p = poses[i0 : i0 + batch]
-        img = np.empty((len(p), height, width, 3), dtype=np.float32)
-        img[:] = background[None, :, None, :]
-        theta = p[:, 2:3] + 2 * np.pi * np.arange(width) / width
-        for k in range(n_landmarks):
-            d = xy[k] - p[:, :2]
-            dist = np.hypot(d[:, 0], d[:, 1])[:, None]
-            off = np.angle(np.exp(1j * (theta - np.arctan2(d[:, 1], d[:, 0])[:, None])))
-            a_az = 1 / (1 + np.exp((np.abs(off) - np.arctan(half[k] / dist)) / soft_az))
-            e_top, e_bot = np.arctan((top[k] - 0.5) / dist), np.arctan(-0.5 / dist)
-            a_el = 1 / (
-                (1 + np.exp((elev - e_top) / soft_el)) * (1 + np.exp((e_bot - elev) / soft_el))
-            )
-            alpha = a_el.astype(np.float32)[:, :, None] * a_az.astype(np.float32)[:, None, :]
-            img += alpha[..., None] * colour[k]
-        img += noise.normal(0, 2.0, img.shape).astype(np.float32)
-        out[i0 : i0 + len(p)] = np.clip(np.rint(img), 0, 255)
-    return out
-
-
 def rendered_panoramas(
     env_id: str, poses: NDArray[np.floating], progress: bool = True
 ) -> NDArray[np.uint8]:
@@ -568,7 +499,7 @@ def _panoramas(poses: NDArray[np.floating], size: tuple[int, int], seed: int, cf
     if cfg.rendered:
         env_id = {(40, 350): "sfa_gym/OmniRover-v0", (60, 600): "sfa_gym/OmniRoverOutdoorCam-v0"}
         return rendered_panoramas(env_id[size], poses, progress)
-    return synthetic_panoramas(poses, *size, seed, progress=progress)
+    return landmark_panoramas(poses, *size, seed, progress=progress)
 
 
 def run(cfg: BenchConfig, progress: bool = True) -> dict[str, Any]:

@@ -19,11 +19,8 @@ import time
 import warnings
 from typing import Any
 
-import numpy as np
-
-from sfa_gym.sfa import presets
-from sfa_gym.sfa.linear import RankDeficiencyWarning
-from sfa_gym.sfa.network import HierarchicalSFA
+from sfa_gym.rotation import rotated_views
+from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
 from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 __all__ = ["benchmark_rotation_training", "benchmark_view_training"]
@@ -39,7 +36,7 @@ def benchmark_rotation_training(
     dtype: str = "float32",
     n_transform: int = 200,
     progress: bool = True,
-    weight_sharing: bool | str = True,
+    weight_sharing: str = "layer",
 ) -> dict[str, Any]:
     """Train ``preset`` with :meth:`HierarchicalSFA.fit_rotations` on synthetic panoramas
     (``weight_sharing`` as for :class:`HierarchicalSFA`).
@@ -60,7 +57,7 @@ def benchmark_rotation_training(
         warnings.simplefilter("ignore", RankDeficiencyWarning)
         model.fit_rotations(pans, step=step)
     fit_s, fit_cpu = time.perf_counter() - t0, time.process_time() - c0
-    views = np.roll(pans[: max(1, n_transform)], -step, axis=2)
+    views = rotated_views(pans[: max(1, n_transform)], step, indices=[1])[0][:, 0]
     model.transform(views[:2])
     t0 = time.perf_counter()
     model.transform(views)
@@ -139,7 +136,7 @@ def main(argv: list[str] | None = None) -> None:
     else:
         result = benchmark_rotation_training(
             args.preset, args.locations, args.step, args.seed, args.dtype,
-            progress=not args.no_progress, weight_sharing="rows" if args.rows else True,
+            progress=not args.no_progress, weight_sharing="rows" if args.rows else "layer",
         )  # fmt: skip
     print(json.dumps(result, indent=2))
 

@@ -10,21 +10,16 @@ import numpy as np
 import pytest
 
 from sfa_gym.sfa import _parallel
+from sfa_gym.sfa._fourth import QuadraticGram, pair_groups
 from sfa_gym.sfa._layers import extract_patches
-from sfa_gym.sfa._moments import (
-    Moments,
-    QuadraticGram,
-    _pair_groups,
-    difference_basis,
-    sequence_block,
-)
+from sfa_gym.sfa._moments import Moments, difference_basis, sequence_block
 from sfa_gym.sfa._periodic import plan_weighted_gram, smallest_period
 from sfa_gym.sfa.expansion import n_quadratic_features, quadratic_expand
 
 
 @pytest.mark.parametrize("k", [1, 2, 5, 9, 32])
 def test_pair_groups_cover_every_second_index_once(k):
-    groups = _pair_groups(k)
+    groups = pair_groups(k)
     assert groups[0][0] == 0 and groups[-1][1] == k
     assert all(a[1] == b[0] and a[0] < a[1] for a, b in zip(groups, groups[1:], strict=False))
 

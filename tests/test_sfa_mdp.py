@@ -1,10 +1,11 @@
 """Our SFA engine against MDP 3.6, the toolkit of the paper (the reference implementation).
 
 Data: a small synthetic world (coloured blocks around an arena, seen from a camera moving along
-a smooth open path), rendered analytically as periodic panoramas. An open path gives slow
-features with well separated delta values, so outputs can be compared one by one; each
-comparison first checks that separation (a near-degenerate pair of outputs is only determined
-up to a rotation, and then only the subspace could be compared).
+a smooth open path), rendered analytically as periodic panoramas by
+:mod:`sfa_gym.sfa.synthetic`. An open path gives slow features with well separated delta values,
+so outputs can be compared one by one; each comparison first checks that separation (a
+near-degenerate pair of outputs is only determined up to a rotation, and then only the subspace
+could be compared).
 """
 
 from __future__ import annotations
@@ -16,7 +17,8 @@ import warnings
 import numpy as np
 import pytest
 
-from sfa_gym.sfa import SFA, HierarchicalSFA, RankDeficiencyWarning, presets
+from sfa_gym.rotation import rotated_views
+from sfa_gym.sfa import SFA, HierarchicalSFA, RankDeficiencyWarning, presets, synthetic
 
 pytestmark = pytest.mark.skipif(
     importlib.util.find_spec("mdp") is None,
@@ -27,51 +29,16 @@ H, W = 10, 40
 N_OUT = 8
 
 
-def landmark_panoramas(poses: np.ndarray, height: int, width: int, seed: int = 0) -> np.ndarray:
-    """``(N, height, width, 3)`` uint8 panoramas at ``poses`` ``(N, 3)`` (x, y, yaw).
-
-    16 blocks of random colour, width and height stand 1.8-4 m from the origin; each covers the
-    columns within its angular half-width and the rows between the ground and its top (soft
-    edges, additive colours) over a sky/ground gradient; Gaussian pixel noise (sd 2) keeps every
-    patch covariance full rank. Column ``c`` looks at azimuth ``yaw + 2*pi*c/width``.
-    """
-    rng = np.random.default_rng(seed)
-    k = 16
-    ang, rad = rng.uniform(0, 2 * np.pi, k), rng.uniform(1.8, 4.0, k)
-    xy = np.c_[rad * np.cos(ang), rad * np.sin(ang)]
-    half, top, colour = (
-        rng.uniform(0.15, 0.6, k),
-        rng.uniform(0.2, 1.5, k),
-        rng.uniform(-120, 120, (k, 3)),
-    )
-    elev = np.deg2rad(np.linspace(20.0, -20.0, height))
-    g = np.clip(elev / np.deg2rad(20.0), -1, 1)[:, None]
-    background = np.where(g >= 0, [140.0, 170.0, 210.0] + 40 * g, [110.0, 100.0, 80.0] + 40 * g)
-    theta = poses[:, 2:3] + 2 * np.pi * np.arange(width) / width  # (N, W)
-    img = np.broadcast_to(background[None, :, None], (len(poses), height, width, 3)).copy()
-    soft_az, soft_el = 2 * np.pi / width, np.deg2rad(40.0) / height
-    for i in range(k):
-        d = xy[i] - poses[:, :2]
-        dist = np.hypot(d[:, 0], d[:, 1])[:, None]
-        off = np.angle(np.exp(1j * (theta - np.arctan2(d[:, 1], d[:, 0])[:, None])))
-        a_az = 1 / (1 + np.exp((np.abs(off) - np.arctan(half[i] / dist)) / soft_az))
-        e_top, e_bot = np.arctan((top[i] - 0.5) / dist), np.arctan(-0.5 / dist)
-        a_el = 1 / ((1 + np.exp((elev - e_top) / soft_el)) * (1 + np.exp((e_bot - elev) / soft_el)))
-        img += (a_el[:, :, None, None] * a_az[:, None, :, None]) * colour[i]
-    img += rng.normal(0, 2.0, img.shape)
-    return np.clip(np.rint(img), 0, 255).astype(np.uint8)
-
-
 def smooth_path(n: int, seed: int) -> np.ndarray:
     """``(n, 3)`` poses along an open path: a few low-frequency sinusoids, slowly turning."""
-    rng = np.random.default_rng(seed)
-    s = np.linspace(0, 1, n)[:, None]
-    xy = sum(
-        rng.normal(0, 0.5 / f, 2) * np.sin(1.3 * np.pi * f * s + rng.uniform(0, 2 * np.pi, 2))
-        for f in (1, 2, 3)
+    return synthetic.smooth_path(
+        n, seed, frequencies=(1, 2, 3), amplitude=0.5, limit=1.2, turn_noise=0.05
     )
-    yaw = np.cumsum(rng.normal(0, 0.05, n)) + np.pi * s[:, 0]
-    return np.c_[np.clip(xy, -1.2, 1.2), yaw]
+
+
+def landmark_panoramas(poses: np.ndarray, height: int, width: int) -> np.ndarray:
+    """16 coloured blocks around the path (:func:`sfa_gym.sfa.synthetic.landmark_panoramas`)."""
+    return synthetic.landmark_panoramas(poses, height, width, n_landmarks=16)
 
 
 def abs_corr(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -119,11 +86,13 @@ def test_import_mdp_shim_is_idempotent_and_local(mdp_bridge):
 def test_old_eigh_signature_maps_to_subset_by_index(mdp_bridge):
     import scipy.linalg
 
+    from sfa_gym.sfa.reference import mdp_compat
+
     rng = np.random.default_rng(0)
     a = rng.normal(size=(6, 6))
     a = a @ a.T
     b = np.eye(6) + 0.1 * np.diag(rng.uniform(size=6))
-    old = mdp_bridge._old_eigh_namespace(scipy.linalg)
+    old = mdp_compat._old_eigh_namespace(scipy.linalg)
     w_old, v_old = old.eigh(a, b, eigvals=(1, 3), turbo=True)
     w_new, v_new = scipy.linalg.eigh(a, b, subset_by_index=[1, 3])
     np.testing.assert_allclose(w_old, w_new)
@@ -188,7 +157,7 @@ def fit_both(views, layers, mdp_bridge, sequence_ids=None, **kwargs):
     ref = mdp_bridge.MDPHierarchicalSFA(layers, N_OUT, progress=False, **kwargs)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # full-rank data: no directions may be dropped
-        ours.fit(views, sequence_ids)
+        ours.fit(views, sequence_ids=sequence_ids)
     return ours, ref
 
 
@@ -216,7 +185,8 @@ def test_sequences_and_chunking_match_mdp(mdp_bridge):
     ids = np.repeat([0, 1, 2], [120, 100, 80])
     layers = presets.tiny(H, W, dim=6, out_dim=N_OUT)
     ours, _ = fit_both(v, layers, mdp_bridge, ids)
-    ref = mdp_bridge.MDPHierarchicalSFA(layers, N_OUT, progress=False, batch_size=37).fit(v, ids)
+    ref = mdp_bridge.MDPHierarchicalSFA(layers, N_OUT, progress=False, batch_size=37)
+    ref.fit(v, sequence_ids=ids)
     assert_separated(ours.delta_values_)
     assert np.all(abs_corr(ours.transform(v), ref.transform(v)) >= 0.99)
     np.testing.assert_allclose(ours.delta_values_, ref.delta_values_, rtol=1e-3)
@@ -237,7 +207,7 @@ def test_rotation_shortcut_matches_mdp_on_every_rotated_view(mdp_bridge):
     assert ref.n_training_views_ == 24 * W // 2
     assert_separated(ours.delta_values_)
     test = landmark_panoramas(smooth_path(10, seed=5), H, W)
-    rotated = np.concatenate([np.roll(test, -k, axis=2) for k in range(0, W, 3)])
+    rotated = np.concatenate(rotated_views(test, step=1, indices=np.arange(0, W, 3))[0])
     assert np.all(abs_corr(ours.transform(rotated), ref.transform(rotated)) >= 0.99)
     np.testing.assert_allclose(ours.delta_values_, ref.delta_values_, rtol=1e-3)
 
@@ -245,7 +215,7 @@ def test_rotation_shortcut_matches_mdp_on_every_rotated_view(mdp_bridge):
 def test_individual_nodes_match_mdp_layer(mdp_bridge):
     v = landmark_panoramas(smooth_path(300, seed=3), H, W)
     layers = presets.tiny(H, W, dim=6, out_dim=N_OUT)
-    ours, ref = fit_both(v, layers, mdp_bridge, weight_sharing=False)
+    ours, ref = fit_both(v, layers, mdp_bridge, weight_sharing="none")
     ref.fit(v)
     assert_separated(ours.delta_values_)
     assert np.all(abs_corr(ours.transform(v), ref.transform(v)) >= 0.99)
@@ -277,4 +247,4 @@ def test_mdp_training_rejects_single_frame_sequences(mdp_bridge):
     ids = np.r_[np.zeros(10), [1], np.full(9, 2)]
     ref = mdp_bridge.MDPHierarchicalSFA(presets.tiny(H, W), N_OUT, progress=False)
     with pytest.raises(ValueError, match="single frame"):
-        ref.fit(v, ids)
+        ref.fit(v, sequence_ids=ids)

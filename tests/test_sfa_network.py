@@ -6,15 +6,18 @@ import warnings
 
 import numpy as np
 import pytest
+from sklearn.exceptions import NotFittedError
 
+from sfa_gym.rotation import rotated_views
 from sfa_gym.sfa import (
     HierarchicalSFA,
     LayerSpec,
-    NotFittedError,
     RankDeficiencyWarning,
     describe,
     layer_grids,
+    load_model,
     presets,
+    save_model,
     shortcut_applies,
 )
 from sfa_gym.sfa._layers import Affine, LayerParams
@@ -37,10 +40,9 @@ def panoramas() -> np.ndarray:
 
 
 def _views(panoramas: np.ndarray, step: int, window: int | None = None) -> np.ndarray:
-    w = panoramas.shape[2]
-    return np.stack(
-        [np.roll(p, -k * step, axis=1)[:, :window] for p in panoramas for k in range(w // step)]
-    )
+    """Every rotated view of every panorama, location by location (the paper's order)."""
+    views = rotated_views(panoramas, step, window)[0]
+    return views.reshape(-1, *views.shape[2:])
 
 
 def _net(layers=None, **kw) -> HierarchicalSFA:
@@ -95,7 +97,7 @@ def test_transform_rotations_equals_transform_of_every_view(panoramas, step):
     np.testing.assert_allclose(
         y.reshape(-1, 4), model.transform(_views(panoramas, step)), atol=1e-9
     )
-    single = _net(weight_sharing=False).fit(_views(panoramas[:4], 4))  # no shortcut: view by view
+    single = _net(weight_sharing="none").fit(_views(panoramas[:4], 4))  # no shortcut: view by view
     np.testing.assert_allclose(
         single.transform_rotations(panoramas[:2], step=step).reshape(-1, 4),
         single.transform(_views(panoramas[:2], step)),
@@ -157,11 +159,11 @@ def test_float32_model_matches_float64_and_chunking_does_not_flip_signs(panorama
 
 def test_individually_learned_nodes(panoramas):
     shared = _net().fit_rotations(panoramas, step=4)
-    single = _net(weight_sharing=False).fit_rotations(panoramas, step=4)
+    single = _net(weight_sharing="none").fit_rotations(panoramas, step=4)
     assert single.fit_method_ == "rotations-brute-force"
     assert single.layer_params_[0].reduce.weight.shape == (4, 20, 48, 6)
     views = _views(panoramas, 4)
-    a = _net(weight_sharing=False, batch_size=13).fit(views)
+    a = _net(weight_sharing="none", batch_size=13).fit(views)
     np.testing.assert_allclose(a.transform(views), single.transform(views), atol=1e-8)
     assert not np.allclose(single.transform(views), shared.transform(views), atol=1e-3)
 
@@ -197,12 +199,14 @@ def test_row_shared_nodes_shortcut_equals_brute_force_and_round_trips(panoramas,
         generic = LayerParams(p.spec, p.grid, *full)
         np.testing.assert_allclose(p.forward(a_in, 4.0), generic.forward(a_in, 4.0), atol=1e-10)
         a_in = p.forward(a_in, 4.0)
-    fast.save(tmp_path / "rows.npz")
-    back = HierarchicalSFA.load(tmp_path / "rows.npz")
+    save_model(fast, tmp_path / "rows.npz")
+    back = load_model(tmp_path / "rows.npz")
     assert back.weight_sharing == "rows"
     np.testing.assert_array_equal(back.transform(views), y)
-    with pytest.raises(ValueError, match="weight_sharing must be True, False or 'rows'"):
+    with pytest.raises(ValueError, match="weight_sharing must be one of 'layer', 'rows' or 'none'"):
         _net(weight_sharing="columns").fit(views)
+    with pytest.raises(ValueError, match="for True use 'layer'"):
+        _net(weight_sharing=True).fit(views)
 
 
 @pytest.mark.parametrize("method", ["views", "rotations"])
@@ -282,18 +286,18 @@ def test_layer_without_expansion(panoramas, tmp_path):
     assert fast.layer_params_[1].reduce.weight.shape == (64, 6)
     views = _views(panoramas, 4)
     np.testing.assert_allclose(fast.transform(views), slow.transform(views), atol=1e-7)
-    fast.save(tmp_path / "m.npz")
-    loaded = HierarchicalSFA.load(tmp_path / "m.npz")
+    save_model(fast, tmp_path / "m.npz")
+    loaded = load_model(tmp_path / "m.npz")
     np.testing.assert_array_equal(loaded.transform(views), fast.transform(views))
 
 
 def test_fourth_moment_products_give_the_same_model_as_rank_k_updates(panoramas, monkeypatch):
-    from sfa_gym.sfa import network
+    from sfa_gym.sfa import _training
 
     views = _views(panoramas[:6], 4)
     models = []
     for fourth in (True, False):
-        monkeypatch.setattr(network, "fourth_moments_pay_off", lambda f=fourth: f)
+        monkeypatch.setattr(_training, "fourth_moments_pay_off", lambda f=fourth: f)
         models.append(_net(batch_size=5).fit(views))
         models.append(_net(batch_size=3).fit_rotations(panoramas, step=4))
     for a, b in ((models[0], models[2]), (models[1], models[3])):

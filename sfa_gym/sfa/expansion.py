@@ -17,8 +17,9 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-
-from sfa_gym.sfa.linear import NotFittedError, check_samples
+from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.utils import Tags
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 __all__ = ["QuadraticExpansion", "n_quadratic_features", "quadratic_expand"]
 
@@ -69,8 +70,10 @@ def quadratic_expand(
     return out
 
 
-class QuadraticExpansion:
-    """Quadratic expansion as a (stateless) scikit-learn style transformer.
+class QuadraticExpansion(TransformerMixin, BaseEstimator):
+    """Quadratic expansion as a (stateless) scikit-learn transformer.
+
+    float32 input stays float32, anything else becomes float64.
 
     Attributes (after ``fit``): ``n_features_in_`` (d), ``n_output_features_``.
 
@@ -83,22 +86,19 @@ class QuadraticExpansion:
         pass
 
     def fit(self, X: Any, y: Any = None) -> QuadraticExpansion:
-        """Record the input dimension of ``X`` ``(n, d)``."""
+        """Record the input dimension of ``X`` ``(n, d)``; ``y`` is ignored."""
         del y
-        arr = check_samples(X)
-        self.n_features_in_ = int(arr.shape[1])
+        validate_data(self, X, dtype=[np.float64, np.float32])
         self.n_output_features_ = n_quadratic_features(self.n_features_in_)
         return self
 
     def transform(self, X: Any) -> NDArray[np.floating]:
-        """Expand ``X`` ``(n, d)`` -> ``(n, d + d(d+1)/2)``; float32 stays float32, else float64."""
-        if not hasattr(self, "n_features_in_"):
-            raise NotFittedError("this QuadraticExpansion is not fitted yet: call fit first")
-        arr = check_samples(X, n_features=self.n_features_in_)
-        if arr.dtype != np.float32:
-            arr = arr.astype(np.float64, copy=False)
+        """Expand ``X`` ``(n, d)`` -> ``(n, d + d(d+1)/2)``."""
+        check_is_fitted(self, "n_output_features_")
+        arr = validate_data(self, X, reset=False, dtype=[np.float64, np.float32])
         return quadratic_expand(arr)
 
-    def fit_transform(self, X: Any, y: Any = None) -> NDArray[np.floating]:
-        """``fit(X).transform(X)``."""
-        return self.fit(X, y).transform(X)
+    def __sklearn_tags__(self) -> Tags:
+        tags = super().__sklearn_tags__()
+        tags.transformer_tags.preserves_dtype = ["float64", "float32"]
+        return tags

@@ -33,18 +33,17 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
+from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.exceptions import NotFittedError
+from sklearn.utils.validation import validate_data
 
 from sfa_gym.sfa._moments import Moments, MomentStats
 from sfa_gym.sfa._parallel import single_threaded_blas
 
-__all__ = ["SFA", "NotFittedError", "RankDeficiencyWarning", "SFASolution", "solve_sfa"]
+__all__ = ["SFA", "RankDeficiencyWarning", "SFASolution", "solve_sfa", "sequence_starts"]
 
 SIGN_CORR_THRESHOLD = 1e-6
 """Below this absolute correlation with time, the sign falls back to the largest weight."""
-
-
-class NotFittedError(ValueError, AttributeError):
-    """An estimator was used before it was fitted."""
 
 
 class RankDeficiencyWarning(UserWarning):
@@ -153,27 +152,6 @@ def _signs(projection: NDArray[np.float64], stats: MomentStats) -> NDArray[np.fl
     return signs
 
 
-def check_samples(x: Any, name: str = "X", n_features: int | None = None) -> NDArray[Any]:
-    """Validate a ``(n, F)`` real, finite sample array; return it as an ndarray (no copy)."""
-    arr = np.asarray(x)
-    if arr.dtype == object or not (
-        np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
-    ):
-        raise TypeError(f"{name} must be a real numeric array, got dtype {arr.dtype}")
-    if arr.ndim != 2:
-        raise ValueError(f"{name} must be 2-D (n_samples, n_features), got shape {arr.shape}")
-    if n_features is not None and arr.shape[1] != n_features:
-        raise ValueError(
-            f"{name} has {arr.shape[1]} features, but the model was fitted with {n_features}"
-        )
-    if np.issubdtype(arr.dtype, np.floating) and not np.all(np.isfinite(arr)):
-        bad = np.argwhere(~np.isfinite(arr))[0]
-        raise ValueError(
-            f"{name} contains NaN or infinite values (first at row {bad[0]}, column {bad[1]})"
-        )
-    return arr
-
-
 def sequence_starts(sequence_ids: Any, n: int) -> NDArray[np.bool_]:
     """``(n,)`` bool: True where a new sequence starts (the id differs from the previous row)."""
     ids = np.asarray(sequence_ids)
@@ -184,8 +162,9 @@ def sequence_starts(sequence_ids: Any, n: int) -> NDArray[np.bool_]:
     return starts
 
 
-class SFA:
-    """Linear Slow Feature Analysis, fitted in one go or chunk by chunk.
+class SFA(TransformerMixin, BaseEstimator):
+    """Linear Slow Feature Analysis, fitted in one go or chunk by chunk; a scikit-learn
+    transformer (``clone``, ``Pipeline`` and ``GridSearchCV`` work).
 
     Args:
         n_components: number of slowest outputs to keep (``None``: as many as the input has
@@ -193,8 +172,8 @@ class SFA:
         rank_tol: covariance eigenvalues below ``rank_tol`` times the largest are treated as
             zero and their directions dropped (with a :class:`RankDeficiencyWarning`).
 
-    Attributes (after fitting; computed from the statistics on first use after each
-    ``partial_fit``, so a chunked fit solves the eigenproblem once):
+    Attributes (after fitting; the eigenproblem is solved from the statistics on first use
+    after each ``partial_fit``, so a chunked fit solves it once):
         mean_: ``(F,)`` training mean.
         components_: ``(k, F)`` weight vectors; ``transform(X) = (X - mean_) @ components_.T``.
         delta_values_: ``(k,)`` ascending mean squared differences of the outputs (per sample).
@@ -202,11 +181,12 @@ class SFA:
         n_dropped_: number of degenerate input directions dropped.
         n_features_in_: ``F``. n_samples_seen_: number of training samples.
 
-    Sequences: ``fit(X, sequence_ids)`` forms no difference between rows whose ids differ.
+    Sequences: ``fit(X, sequence_ids=ids)`` forms no difference between rows whose ids differ.
     ``partial_fit(chunk)`` treats the chunk as continuing the current sequence (the last row
     of the previous chunk is kept to form the difference across the boundary) unless
     ``new_sequence=True``, or ``sequence_ids`` says otherwise (a chunk continues the previous
-    one if its first id equals the previous chunk's last id).
+    one if its first id equals the previous chunk's last id). ``y`` is ignored (SFA learns
+    without labels); it is accepted so that SFA can stand in a ``Pipeline`` before a regressor.
 
     Example:
         >>> import numpy as np
@@ -223,7 +203,15 @@ class SFA:
 
     # -- training ---------------------------------------------------------------------------
     def _reset(self) -> None:
-        for name in ("_moments", "_last", "_last_id", "_solution", "_n_seen"):
+        for name in (
+            "_moments",
+            "_last",
+            "_last_id",
+            "_solution",
+            "n_samples_seen_",
+            "n_features_in_",
+            "feature_names_in_",
+        ):
             self.__dict__.pop(name, None)
 
     def _check_params(self) -> None:
@@ -233,36 +221,49 @@ class SFA:
         if not (isinstance(self.rank_tol, float | int) and 0 <= self.rank_tol < 1):
             raise ValueError(f"rank_tol must be a float in [0, 1), got {self.rank_tol!r}")
 
-    def fit(self, X: Any, sequence_ids: Any = None) -> SFA:
-        """Fit on ``X`` ``(n, F)`` (rows in time order); ``sequence_ids`` ``(n,)`` optional."""
+    def fit(self, X: Any, y: Any = None, sequence_ids: Any = None) -> SFA:
+        """Fit on ``X`` ``(n, F)`` (rows in time order); ``sequence_ids`` ``(n,)`` optional;
+        ``y`` is ignored."""
+        del y
+        self._check_params()
         self._reset()
-        self.partial_fit(X, new_sequence=True, sequence_ids=sequence_ids)
+        x = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
+        self._add(x, new_sequence=True, sequence_ids=sequence_ids)
         self._solve()
         return self
 
-    def partial_fit(self, X: Any, *, new_sequence: bool = False, sequence_ids: Any = None) -> SFA:
-        """Add a chunk ``X`` ``(n, F)`` of training data (see the class docstring on sequences)."""
+    def partial_fit(
+        self, X: Any, y: Any = None, *, new_sequence: bool = False, sequence_ids: Any = None
+    ) -> SFA:
+        """Add a chunk ``X`` ``(n, F)`` of training data (see the class docstring on sequences);
+        ``y`` is ignored."""
+        del y
         self._check_params()
-        moments: Moments | None = getattr(self, "_moments", None)
-        arr = check_samples(X, n_features=None if moments is None else moments.n_features)
-        n, f = arr.shape
+        first = getattr(self, "_moments", None) is None
+        x = validate_data(self, X, reset=first, dtype=np.float64, ensure_min_samples=0)
+        self._add(x, new_sequence, sequence_ids)
+        return self
+
+    def _add(self, x: NDArray[np.float64], new_sequence: bool, sequence_ids: Any) -> None:
+        """Add validated samples ``x`` ``(n, F)`` to the statistics."""
+        n, f = x.shape
         if self.n_components is not None and self.n_components > f:
             raise ValueError(f"n_components={self.n_components} exceeds the input dimension {f}")
-        x = arr.astype(np.float64, copy=False)
+        moments: Moments | None = getattr(self, "_moments", None)
         if moments is None:
             moments = self._moments = Moments(f)
-            self._n_seen = 0
+            self.n_samples_seen_ = 0
             self._last = None
             self._last_id = None
         starts = sequence_starts(sequence_ids, n) if sequence_ids is not None else np.zeros(n, bool)
         if n == 0:
-            return self
+            return
         continues = not new_sequence and self._last is not None
         if sequence_ids is not None:
             first_id = np.asarray(sequence_ids)[0]
             continues = continues and self._last_id is not None and first_id == self._last_id
         starts[0] = not continues
-        t = np.arange(self._n_seen, self._n_seen + n, dtype=np.float64)
+        t = np.arange(self.n_samples_seen_, self.n_samples_seen_ + n, dtype=np.float64)
         moments.add_samples(x.T[None], t)
         # differences inside the chunk, except into rows that start a sequence
         inner = ~starts[1:]
@@ -271,9 +272,8 @@ class SFA:
             moments.add_differences((x[:1] - self._last).T[None])
         self._last = x[-1:].copy()
         self._last_id = None if sequence_ids is None else np.asarray(sequence_ids)[-1]
-        self._n_seen += n
+        self.n_samples_seen_ += n
         self._solution = None
-        return self
 
     def _solve(self) -> SFASolution:
         moments: Moments | None = getattr(self, "_moments", None)
@@ -282,6 +282,9 @@ class SFA:
         if getattr(self, "_solution", None) is None:
             self._solution = solve_sfa(moments.finish(), self.n_components, self.rank_tol)
         return self._solution
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return getattr(self, "_moments", None) is not None
 
     # -- learned attributes -----------------------------------------------------------------
     @property
@@ -304,23 +307,9 @@ class SFA:
     def n_dropped_(self) -> int:
         return self._solve().n_dropped
 
-    @property
-    def n_features_in_(self) -> int:
-        self._solve()
-        return self._moments.n_features
-
-    @property
-    def n_samples_seen_(self) -> int:
-        self._solve()
-        return int(self._n_seen)
-
     # -- inference --------------------------------------------------------------------------
     def transform(self, X: Any) -> NDArray[np.float64]:
         """Slow features of ``X`` ``(n, F)``: ``(n, k)`` float64, slowest first."""
         sol = self._solve()
-        x = check_samples(X, n_features=sol.mean.shape[0]).astype(np.float64, copy=False)
+        x = validate_data(self, X, reset=False, dtype=np.float64)
         return (x - sol.mean) @ sol.projection
-
-    def fit_transform(self, X: Any, sequence_ids: Any = None) -> NDArray[np.float64]:
-        """``fit(X, sequence_ids).transform(X)``."""
-        return self.fit(X, sequence_ids).transform(X)

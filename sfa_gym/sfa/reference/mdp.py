@@ -1,9 +1,9 @@
 """MDP 3.6 as a reference implementation of (hierarchical) SFA.
 
 MDP (the Modular toolkit for Data Processing) is the toolkit the paper's networks were built
-with. It predates numpy 2 and scipy 1.14 and no longer imports as released; :func:`import_mdp`
-applies the smallest compatibility shim that makes it work, confined to MDP's own namespace as
-far as possible (see the function's docstring for each patch and why). On top of it this module
+with. It predates numpy 2 and scipy 1.14 and no longer imports as released;
+:func:`~sfa_gym.sfa.reference.mdp_compat.import_mdp` applies the smallest compatibility shim that
+makes it work, confined to MDP's own namespace as far as possible. On top of it this module
 builds the MDP network (``Rectangular2dSwitchboard`` + ``CloneLayer`` of ``FlowNode`` nodes) that
 corresponds to a :class:`~sfa_gym.sfa.HierarchicalSFA` architecture, so that our engine can be
 checked and benchmarked against it.
@@ -13,121 +13,28 @@ MDP is optional: nothing else in ``sfa_gym`` imports this module.
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
-import sys
 import types
-import warnings
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from sklearn.exceptions import NotFittedError
 
-if TYPE_CHECKING:
-    from sfa_gym.sfa.spec import LayerSpec
+from sfa_gym.rotation import check_window, n_rotations, rotation_columns
+from sfa_gym.sfa._weights import check_weight_sharing
+from sfa_gym.sfa.reference.mdp_compat import MDP_INSTALL_HINT, import_mdp
+from sfa_gym.sfa.spec import LayerSpec, layer_grids
 
-MDP_INSTALL_HINT = (
-    "MDP is not installed: `pip install 'mdp>=3.6'` (or `pip install 'sfa-gym[mdp]'`)"
-)
-
-_SHIM_MARK = "_sfa_gym_shim_applied"
-_NUMPY_NAMES_MDP_READS_FROM_SCIPY = ("pi", "inf", "newaxis", "mgrid", "typecodes")
-
-
-def _old_eigh_namespace(linalg: types.ModuleType) -> types.SimpleNamespace:
-    """``scipy.linalg`` as MDP's ``wrap_eigh`` expects it (scipy < 1.14).
-
-    scipy 1.14 removed ``eigh``'s ``eigvals=(lo, hi)`` (0-based, inclusive) and ``turbo`` keywords.
-    ``eigvals`` maps one-to-one onto ``subset_by_index=[lo, hi]``. ``turbo=True`` selected the
-    divide-and-conquer driver for full generalized problems, which is scipy's default driver there
-    now (and with a subset, old and new scipy both use the expert driver), so it is dropped.
-    """
-
-    def eigh(a: Any, b: Any = None, *, eigvals: Any = None, turbo: bool = True, **kwargs: Any):
-        del turbo  # see the docstring: the default driver choice is the old turbo choice
-        if eigvals is not None:
-            kwargs["subset_by_index"] = [int(eigvals[0]), int(eigvals[1])]
-        return linalg.eigh(a, b, **kwargs)
-
-    return types.SimpleNamespace(eigh=eigh, LinAlgError=linalg.LinAlgError)
-
-
-def import_mdp() -> types.ModuleType:
-    """Import MDP 3.6 on numpy 2 / scipy >= 1.14 and return the ``mdp`` module.
-
-    Idempotent: the shim is applied once per process. What it patches, and why:
-
-    1. ``typeDict`` (removed in numpy 1.24; MDP reads it once, at import, from its array
-       namespace, which is the ``scipy`` module, to list float types) is set on ``scipy`` to
-       ``numpy.sctypeDict`` *during the import only*, then removed again.
-    2. ``scipy.random`` (removed from scipy; MDP imports it as its random backend and, failing,
-       silently falls back to a numpy backend without generalized eigensolvers) is provided as
-       ``numpy.random`` through ``sys.modules`` during the import only, never as an attribute.
-    3. MDP uses the ``scipy`` module as its numpy namespace and, on any scipy >= 1.4, copies ~500
-       numpy names into it. It also reads numpy constants that scipy no longer re-exports
-       (``pi``, ``inf``, ``newaxis``, ``mgrid``, ``typecodes``): these are added to ``scipy`` for
-       good, as MDP needs them at run time. Two of MDP's copies shadow scipy's own attributes
-       (``scipy.test``, ``scipy.show_config``): those are restored. No existing scipy attribute
-       changes, so code that uses scipy normally is unaffected.
-    4. ``mdp.utils.symeig``: MDP picks its LAPACK-backed ``wrap_eigh`` only when
-       ``scipy.linalg.eigh`` has more than 4 positional parameters; scipy made them keyword-only,
-       so MDP falls back to ``_symeig_fake`` (whitening by a full eigendecomposition). We restore
-       ``wrap_eigh`` (what MDP ran on the scipy it was written for) in MDP's modules that bound
-       the name, and give ``wrap_eigh`` -- in its own module's namespace only -- an ``eigh``
-       with the old signature (``eigvals=(lo, hi)`` -> ``subset_by_index=[lo, hi]``).
-       ``scipy.linalg`` itself is untouched.
-
-    Raises:
-        ImportError: MDP is not installed (the message says how to install it).
-    """
-    loaded = sys.modules.get("mdp")
-    if loaded is not None and getattr(loaded, _SHIM_MARK, False):
-        return loaded
-    if importlib.util.find_spec("mdp") is None:
-        raise ImportError(MDP_INSTALL_HINT)
-
-    import scipy
-    import scipy.linalg
-
-    scipy_own = {
-        name: getattr(scipy, name) for name in ("test", "show_config") if name in vars(scipy)
-    }
-    added_typedict = "typeDict" not in vars(scipy)
-    added_random = "scipy.random" not in sys.modules
-    for name in _NUMPY_NAMES_MDP_READS_FROM_SCIPY:
-        if name not in vars(scipy):
-            setattr(scipy, name, getattr(np, name))
-    if added_typedict:
-        scipy.typeDict = np.sctypeDict
-    if added_random:
-        sys.modules["scipy.random"] = np.random
-    try:
-        with warnings.catch_warnings():
-            # MDP copies every numpy name it knows, deprecated ones included
-            warnings.simplefilter("ignore", DeprecationWarning)
-            mdp = importlib.import_module("mdp")
-    finally:
-        if added_typedict:
-            del scipy.typeDict
-        if added_random:
-            del sys.modules["scipy.random"]
-        for name, value in scipy_own.items():
-            setattr(scipy, name, value)
-
-    from mdp.utils import _symeig
-
-    if mdp.numx_description != "scipy":
-        raise ImportError(f"MDP chose the {mdp.numx_description!r} backend; expected 'scipy'")
-    _symeig.numx_linalg = _old_eigh_namespace(scipy.linalg)
-    mdp.utils.symeig = _symeig.wrap_eigh
-    for module_name in ("sfa_nodes", "gsfa_nodes", "lle_nodes", "pca_nodes"):
-        module = sys.modules.get(f"mdp.nodes.{module_name}")
-        if module is not None and hasattr(module, "symeig"):
-            module.symeig = _symeig.wrap_eigh
-    mdp.config.ExternalDepFound("symeig", "scipy.linalg.eigh")
-    setattr(mdp, _SHIM_MARK, True)
-    return mdp
+__all__ = [
+    "MDPHierarchicalSFA",
+    "MDP_INSTALL_HINT",
+    "build_mdp_network",
+    "execute_mdp_network",
+    "import_mdp",
+    "mdp_linear_sfa",
+    "train_mdp_network",
+]
 
 
 def mdp_linear_sfa(
@@ -229,7 +136,7 @@ def build_mdp_network(
     input_shape: tuple[int, int, int],
     n_outputs: int = 8,
     *,
-    weight_sharing: bool = True,
+    weight_sharing: str = "layer",
     clip: float | None = 4.0,
     rank_deficit_method: str = "none",
     rank_tol: float | None = None,
@@ -249,7 +156,8 @@ def build_mdp_network(
         layers: the architecture (bottom first); the top layer must have a single node.
         input_shape: ``(H, W, 3)`` of the views.
         n_outputs: number of slowest top outputs.
-        weight_sharing: one node per layer (``CloneLayer``) or one per position (``Layer``).
+        weight_sharing: ``"layer"``: one node per layer (``CloneLayer``); ``"none"``: one per
+            position (``Layer``). MDP has no layer whose nodes are shared along grid rows.
         clip: clipping of intermediate node outputs, as in ``HierarchicalSFA`` (None: none).
         rank_deficit_method: passed to every ``SFANode`` (``"none"`` is MDP's default; see
             ``mdp.nodes.SFANode`` for ``"pca"``, ``"reg"``, ... on rank-deficient data).
@@ -263,11 +171,9 @@ def build_mdp_network(
         An untrained ``mdp.Flow`` taking views flattened to ``(N, H * W * 3)`` float64
         (see :func:`train_mdp_network` and :func:`execute_mdp_network`).
     """
-    from sfa_gym.sfa.spec import layer_grids
-
-    if not isinstance(weight_sharing, bool | np.bool_):
+    if check_weight_sharing(weight_sharing) == "rows":
         raise ValueError(
-            f"weight_sharing must be True or False for an MDP network, got {weight_sharing!r} "
+            "weight_sharing must be 'layer' or 'none' for an MDP network, got 'rows' "
             "(MDP has no layer whose nodes are shared along grid rows)"
         )
     mdp = import_mdp()
@@ -305,7 +211,7 @@ def build_mdp_network(
         flow_nodes.append(board)
         node_clip = None if i == len(layers) - 1 else clip
         in_dim = board.out_channel_dim
-        if weight_sharing:
+        if weight_sharing == "layer":
             layer = mdp.hinet.CloneLayer(
                 _node_flow(mdp, spec, in_dim, node_clip, rank_deficit_method, rank_tol),
                 n_nodes=rows * cols,
@@ -462,7 +368,7 @@ class MDPHierarchicalSFA:
         self,
         layers: Sequence[LayerSpec],
         n_outputs: int = 8,
-        weight_sharing: bool = True,
+        weight_sharing: str = "layer",
         *,
         clip: float | None = 4.0,
         rank_deficit_method: str = "none",
@@ -500,16 +406,18 @@ class MDPHierarchicalSFA:
         )
         self.flow_ = flow
         self.input_shape_ = tuple(int(v) for v in shape)
-        from sfa_gym.sfa.spec import layer_grids
-
         self.grids_ = layer_grids(list(self.layers), shape[0], shape[1])
         # the top layer is flow[-2] (before the output selection); its last node is the SFA
         top_sfa = flow[-2].nodes[0]._flow[-1]
         self.delta_values_ = np.asarray(top_sfa.d, dtype=np.float64)[: self.n_outputs]
         self.n_training_views_ = int(n)
 
-    def fit(self, views: NDArray[np.uint8], sequence_ids: Any = None) -> MDPHierarchicalSFA:
-        """Train on ``views`` ``(N, H, W, 3)`` uint8 in time order (see ``HierarchicalSFA.fit``)."""
+    def fit(
+        self, views: NDArray[np.uint8], y: Any = None, sequence_ids: Any = None
+    ) -> MDPHierarchicalSFA:
+        """Train on ``views`` ``(N, H, W, 3)`` uint8 in time order (see ``HierarchicalSFA.fit``;
+        ``y`` is ignored)."""
+        del y
         views = _check_uint8_views(views)
         self._fit(views.shape[1:], views.shape[0], lambda i0, i1: views[i0:i1], sequence_ids)
         return self
@@ -521,20 +429,14 @@ class MDPHierarchicalSFA:
         materialising the views chunk by chunk (MDP has no rotation shortcut)."""
         panoramas = _check_uint8_views(panoramas, "panoramas")
         n_loc, h, w, _ = panoramas.shape
-        if not isinstance(step, int | np.integer) or not 1 <= step <= w or w % step:
-            raise ValueError(
-                f"step must be an int in [1, {w}] dividing the width {w}, got {step!r}"
-            )
-        window = w if window is None else int(window)
-        if not 1 <= window <= w:
-            raise ValueError(f"window must lie in [1, {w}], got {window}")
-        n_rot = w // step
+        n_rot = n_rotations(w, step)
+        window = check_window(w, window)
+        columns = rotation_columns(w, step, window)  # (K, window)
 
         def get(i0: int, i1: int) -> NDArray[np.uint8]:
             idx = np.arange(i0, i1)
             loc, k = idx // n_rot, idx % n_rot
-            cols = (k[:, None] * step + np.arange(window)[None, :]) % w
-            return panoramas[loc[:, None], :, cols].transpose(0, 2, 1, 3)
+            return panoramas[loc[:, None], :, columns[k]].transpose(0, 2, 1, 3)
 
         self._fit((h, window, 3), n_loc * n_rot, get, None)
         return self
@@ -543,8 +445,6 @@ class MDPHierarchicalSFA:
         """Slow features ``(N, n_outputs)`` of ``views`` ``(N, H, W, 3)`` uint8."""
         flow = getattr(self, "flow_", None)
         if flow is None:
-            from sfa_gym.sfa.linear import NotFittedError
-
             raise NotFittedError("this MDPHierarchicalSFA is not fitted yet: call fit first")
         views = _check_uint8_views(views)
         if tuple(views.shape[1:]) != self.input_shape_:
