@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from sklearn.exceptions import NotFittedError
 
 from sfa_gym.localization.methods import check_views, iter_chunks
 
@@ -78,7 +79,7 @@ class BandMeans:
     def transform(self, views: NDArray[np.uint8]) -> NDArray[np.float64]:
         """``(N, H, W, 3)`` uint8 -> ``(N, 3 * n_bands)`` float64."""
         if not hasattr(self, "input_shape_"):
-            raise ValueError("BandMeans is not fitted yet; call fit(views) first")
+            raise NotFittedError("BandMeans is not fitted yet; call fit(views) first")
         return band_means(views, self.args.n_bands, self.args.chunk)
 
 

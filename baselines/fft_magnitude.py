@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from sklearn.exceptions import NotFittedError
 
 from sfa_gym.localization.methods import check_views, iter_chunks
 
@@ -93,7 +94,7 @@ class FFTMagnitude:
     def transform(self, views: NDArray[np.uint8]) -> NDArray[np.float64]:
         """``(N, H, W, 3)`` uint8 -> ``(N, n_bands * n_frequencies * 3)`` float64."""
         if not hasattr(self, "input_shape_"):
-            raise ValueError("FFTMagnitude is not fitted yet; call fit(views) first")
+            raise NotFittedError("FFTMagnitude is not fitted yet; call fit(views) first")
         a = self.args
         return fft_magnitude(views, a.n_bands, a.n_frequencies, a.chunk)
 

@@ -3,10 +3,12 @@
 The linear, unsupervised counterpart of SFA: each view is shrunk by area averaging (OpenCV
 ``INTER_AREA``) by ``shrink`` in both directions (40 x 350 -> 8 x 70 by default, so that one
 5 px rotation step is one column), and projected on the ``n_components`` directions of largest
-variance of the training views (8, as many as the SFA outputs). With ``whiten`` the outputs have
-unit variance over the training views, like SFA's. PCA ignores the temporal order of the views
-that SFA learns from. The covariance is accumulated over chunks of views, so training on all
-rotated views of a run does not hold them in memory as floats.
+variance of the training views (8, as many as the SFA outputs), by scikit-learn's ``PCA`` (the
+covariance's eigenvectors, ``svd_solver="covariance_eigh"``: the ``D x D`` covariance is small
+next to the ``N x D`` data). With ``whiten`` the outputs have unit variance over the training
+views, like SFA's. PCA ignores the temporal order of the views that SFA learns from. Views are
+shrunk a chunk at a time; the shrunk training views are held as float64 (``N * D * 8`` bytes:
+0.6 GB for the 43 680 rotated views of the paper's 624 training locations).
 """
 
 from __future__ import annotations
@@ -15,9 +17,9 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-import scipy.linalg
-import scipy.sparse.linalg
+import sklearn.decomposition
 from numpy.typing import NDArray
+from sklearn.exceptions import NotFittedError
 from tqdm.auto import tqdm
 
 from sfa_gym.localization.methods import check_views, iter_chunks
@@ -34,7 +36,7 @@ class Args:
     regressor: str = "quadratic"
     """regression these features are paired with (sfa_gym.localization.regression name)"""
     chunk: int = 2048
-    """views processed at once when accumulating the covariance"""
+    """views shrunk at once"""
     progress: bool = False
     """show a progress bar while fitting"""
 
@@ -59,26 +61,17 @@ def shrink_views(views: NDArray[np.uint8], shrink: int) -> NDArray[np.float64]:
     return small.reshape(n, -1) / 255.0
 
 
-def _top_eigenpairs(
-    matrix: NDArray[np.float64], k: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The ``k`` largest eigenvalues ``(k,)`` and eigenvectors ``(D, k)`` of a symmetric matrix."""
-    dim = len(matrix)
-    if k < dim // 4:
-        # Lanczos needs only products with the matrix: for a few components of a D ~ 2000
-        # covariance it takes a fraction of a second where a full decomposition takes seconds.
-        # A fixed start vector keeps it deterministic.
-        try:
-            return scipy.sparse.linalg.eigsh(matrix, k=k, which="LA", v0=np.ones(dim), tol=0.0)
-        except scipy.sparse.linalg.ArpackError:
-            pass  # e.g. a zero matrix (identical views): the full decomposition copes
-    return scipy.linalg.eigh(matrix, subset_by_index=(dim - k, dim - 1))
+def _round_off(data: NDArray[np.float64], mean: NDArray[np.float64]) -> float:
+    """Size of the round-off in the covariance of ``data (N, D)``: the covariance is computed as
+    ``X^T X / (N - 1) - mean mean^T``, whose cancellation leaves ~eps * |mean|^2 per entry."""
+    return float(data.shape[1] * np.finfo(np.float64).eps * max(1.0, float(mean @ mean)))
 
 
 class PCA:
     """Feature method: projection of shrunk views on their principal components.
 
     Attributes (after ``fit``):
+        pca_: the fitted ``sklearn.decomposition.PCA``.
         input_shape_: (H, W, 3).
         mean_: (D,) float64, mean shrunk view.
         components_: (n_components, D) float64, unit-norm directions, largest variance first.
@@ -106,38 +99,30 @@ class PCA:
                 f"n_components must lie in [1, {min(n - 1, dim)}] for {n} views of {dim} "
                 f"values each (N - 1 and D bound the rank), got {a.n_components}"
             )
-        # Accumulating around the first chunk's mean avoids the cancellation of E[x x^T] - m m^T.
-        shift = shrink_views(views[: min(n, a.chunk)], a.shrink).mean(axis=0)
-        total = np.zeros(dim)
-        scatter = np.zeros((dim, dim))
-        for part in tqdm(
-            list(iter_chunks(n, a.chunk)), desc="PCA covariance", disable=not a.progress
-        ):
-            x = shrink_views(views[part], a.shrink) - shift
-            total += x.sum(axis=0)
-            scatter += x.T @ x
-        centred_mean = total / n
-        covariance = (scatter - n * np.outer(centred_mean, centred_mean)) / (n - 1)
-        values, vectors = _top_eigenpairs(covariance, a.n_components)
-        order = np.argsort(values)[::-1]
-        components = vectors[:, order].T
-        # An eigenvector's sign is arbitrary; fix it so the same data give the same features.
-        signs = np.sign(components[np.arange(len(components)), np.abs(components).argmax(axis=1)])
-        self.components_ = components * signs[:, None]
-        self.explained_variance_ = np.maximum(values[order], 0.0)
-        if a.whiten and np.any(self.explained_variance_ <= 0):
+        shrunk = np.empty((n, dim))
+        for part in tqdm(list(iter_chunks(n, a.chunk)), desc="PCA", disable=not a.progress):
+            shrunk[part] = shrink_views(views[part], a.shrink)
+        # svd_flip makes the largest entry of each component positive: the same data give the
+        # same features.
+        self.pca_ = sklearn.decomposition.PCA(
+            a.n_components, whiten=a.whiten, svd_solver="covariance_eigh"
+        ).fit(shrunk)
+        self.components_ = self.pca_.components_
+        self.explained_variance_ = self.pca_.explained_variance_
+        self.mean_ = self.pca_.mean_
+        # Eigenvalues of a covariance with fewer directions than components are round-off.
+        if a.whiten and np.any(self.explained_variance_ <= _round_off(shrunk, self.mean_)):
             raise ValueError(
                 "the training views vary along fewer than n_components directions, so whitening "
                 "would divide by zero; use fewer components, more varied views or whiten=False"
             )
-        self.mean_ = shift + centred_mean
         self.input_shape_ = tuple(views.shape[1:])
         return self
 
     def transform(self, views: NDArray[np.uint8]) -> NDArray[np.float64]:
         """``(N, H, W, 3)`` uint8 (the fitted shape) -> ``(N, n_components)`` float64."""
-        if not hasattr(self, "components_"):
-            raise ValueError("PCA is not fitted yet; call fit(views) first")
+        if not hasattr(self, "pca_"):
+            raise NotFittedError("PCA is not fitted yet; call fit(views) first")
         views = check_views(views)
         if tuple(views.shape[1:]) != self.input_shape_:
             raise ValueError(
@@ -146,11 +131,7 @@ class PCA:
             )
         out = np.empty((len(views), len(self.components_)))
         for part in iter_chunks(len(views), self.args.chunk):
-            out[part] = (
-                shrink_views(views[part], self.args.shrink) - self.mean_
-            ) @ self.components_.T
-        if self.args.whiten:
-            out /= np.sqrt(self.explained_variance_)
+            out[part] = self.pca_.transform(shrink_views(views[part], self.args.shrink))
         return out
 
 

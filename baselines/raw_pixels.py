@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from sklearn.exceptions import NotFittedError
 
 from sfa_gym.localization.methods import check_views
 
@@ -69,7 +70,7 @@ class RawPixels:
     def transform(self, views: NDArray[np.uint8]) -> NDArray[np.float64]:
         """``(N, H, W, 3)`` uint8 -> ``(N, height * width * 3)`` float64."""
         if not hasattr(self, "input_shape_"):
-            raise ValueError("RawPixels is not fitted yet; call fit(views) first")
+            raise NotFittedError("RawPixels is not fitted yet; call fit(views) first")
         return raw_pixels(views, self.args.height, self.args.width)
 
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from sklearn.exceptions import NotFittedError
 
 from sfa_gym.localization.methods import load_method_file
 from sfa_gym.rotation import rotated_views
@@ -124,7 +125,7 @@ def test_pca_bad_input_is_refused_clearly():
     views = _views(5, h=10, w=30)
     with pytest.raises(ValueError, match=r"n_components must lie in \[1, 4\]"):
         _method("pca").fit(views)
-    with pytest.raises(ValueError, match="not fitted"):
+    with pytest.raises(NotFittedError, match="not fitted"):
         _method("pca").transform(views)
     method = _method("pca", n_components=2).fit(views)
     with pytest.raises(ValueError, match=r"fitted on views of shape \(10, 30, 3\)"):
@@ -139,7 +140,7 @@ def test_pca_bad_input_is_refused_clearly():
 
 @pytest.mark.parametrize("name", ["band_means", "fft_magnitude", "raw_pixels"])
 def test_stateless_baselines_refuse_bad_input(name):
-    with pytest.raises(ValueError, match="not fitted"):
+    with pytest.raises(NotFittedError, match="not fitted"):
         _method(name).transform(_views(1))
     with pytest.raises(ValueError, match=r"\(N, H, W, 3\)"):
         _method(name).fit(np.zeros((2, 40, 350), dtype=np.uint8))

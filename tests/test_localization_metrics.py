@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from sklearn.neighbors import KNeighborsRegressor
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
 
 from sfa_gym.localization.metrics import (
     eta,
@@ -126,9 +129,30 @@ def test_random_split_mae_refuses_bad_input():
     with pytest.raises(ValueError, match="unknown regressor"):
         random_split_mae(positions, positions, "forest")
     with pytest.raises(TypeError, match="zero-argument callable"):
-        random_split_mae(positions, positions, LinearRegressor())
+        random_split_mae(positions, positions, 42)
     with pytest.raises(ValueError, match="both need at least one"):
         random_split_mae(positions[:2], positions[:2], "linear", train_fraction=0.2)
+
+
+def test_a_scikit_learn_regressor_is_cloned_for_every_fit():
+    positions = _grid()
+    rng = np.random.default_rng(3)
+    features = np.tanh(positions) + 0.1 * rng.normal(size=positions.shape)
+    by_name = random_split_mae(features, positions, "knn", n_splits=4)
+    template = KNNRegressor()
+    by_instance = random_split_mae(features, positions, template, n_splits=4)
+    np.testing.assert_array_equal(by_instance.per_split_m, by_name.per_split_m)
+    assert not hasattr(template, "n_features_in_")  # the caller's object stays unfitted
+    pipeline = make_pipeline(StandardScaler(), KNeighborsRegressor(3))
+    scaled = random_split_mae(features, positions, pipeline, n_splits=4)
+    expected = random_split_mae(
+        features, positions, lambda: make_pipeline(StandardScaler(), KNNRegressor()), n_splits=4
+    )
+    np.testing.assert_allclose(scaled.per_split_m, expected.per_split_m)
+    train_test = train_test_mae(features, positions, features, positions, regressor=template)
+    np.testing.assert_allclose(
+        train_test.mae_m, train_test_mae(features, positions, features, positions, "knn").mae_m
+    )
 
 
 def _position_and_orientation_codes(n_pos: int = 30, n_orient: int = 12):

@@ -6,15 +6,19 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from sklearn.base import clone
+from sklearn.exceptions import NotFittedError
+from sklearn.model_selection import GridSearchCV
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
+from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from sfa_gym.localization.regression import (
     KNNRegressor,
     LinearRegressor,
     MapDecoder,
-    NotFittedError,
     QuadraticRidge,
     make_regressor,
-    quadratic_expansion,
 )
 
 
@@ -70,8 +74,35 @@ def test_ridge_penalty_shrinks_the_coefficients():
 
 
 def test_quadratic_expansion_columns():
-    x = np.array([[2.0, 3.0]])
-    np.testing.assert_array_equal(quadratic_expansion(x), [[2.0, 3.0, 4.0, 6.0, 9.0]])
+    model = QuadraticRidge().fit(np.array([[2.0, 3.0], [1.0, 5.0], [0.0, 1.0]]), np.eye(3)[:, :2])
+    expansion = model.pipeline_.named_steps["polynomialfeatures"]
+    names = expansion.get_feature_names_out(["a", "b"]).tolist()
+    assert names == ["a", "b", "a^2", "a b", "b^2"]  # the inputs, then x_i x_j for i <= j
+
+
+def test_quadratic_ridge_is_ridge_on_the_standardized_expansion_with_a_free_intercept():
+    x, rng = _data(120)
+    y = np.column_stack([x[:, 0] * x[:, 1], x[:, 2] ** 2]) + 0.3 * rng.normal(size=(120, 2))
+    alpha = 5.0
+
+    def standardized_expansion(data, train):
+        def z(a, ref):
+            return (a - ref.mean(axis=0)) / ref.std(axis=0)
+
+        def expand(a):
+            rows, cols = np.triu_indices(a.shape[1])
+            return np.concatenate([a, a[:, rows] * a[:, cols]], axis=1)
+
+        return z(expand(z(data, train)), expand(z(train, train)))
+
+    design = standardized_expansion(x, x)
+    # The intercept is the targets' mean: the expanded columns are centred and not penalized.
+    coef = np.linalg.solve(
+        design.T @ design + alpha * np.eye(design.shape[1]), design.T @ (y - y.mean(axis=0))
+    )
+    x_new, _ = _data(30, seed=5)
+    expected = standardized_expansion(x_new, x) @ coef + y.mean(axis=0)
+    np.testing.assert_allclose(QuadraticRidge(alpha).fit(x, y).predict(x_new), expected, atol=1e-9)
 
 
 def test_quadratic_ridge_recovers_a_quadratic_map_where_linear_cannot():
@@ -102,12 +133,15 @@ def test_knn_averages_the_nearest_training_targets(algorithm, k):
     nearest = np.argsort(distances, axis=1)[:, :3]
     expected = y[nearest].mean(axis=1)
     model = KNNRegressor(3, algorithm=algorithm).fit(x, y)
-    assert (model.tree_ is None) == (algorithm == "brute")
+    assert model.algorithm_ == algorithm
     np.testing.assert_allclose(model.predict(queries), expected)
     # One neighbour at a training point returns its target; so does distance weighting.
     np.testing.assert_array_equal(KNNRegressor(1, algorithm=algorithm).fit(x, y).predict(x), y)
     weighted = KNNRegressor(4, weights="distance", algorithm=algorithm).fit(x, y)
-    np.testing.assert_allclose(weighted.predict(x), y)
+    # Brute force gets distances from dot products: an exact match is ~1e-8, not 0, away.
+    np.testing.assert_allclose(
+        weighted.predict(x), y, rtol=1e-7 if algorithm == "kd_tree" else 1e-5
+    )
     # As many neighbours as samples: the mean of all targets.
     everything = KNNRegressor(60, algorithm=algorithm).fit(x, y).predict(queries)
     np.testing.assert_allclose(everything, np.broadcast_to(y.mean(axis=0), (10, 2)))
@@ -116,9 +150,9 @@ def test_knn_averages_the_nearest_training_targets(algorithm, k):
 def test_knn_auto_uses_a_tree_only_in_few_dimensions():
     x, rng = _data(30, k=3)
     y = rng.normal(size=(30, 2))
-    assert KNNRegressor().fit(x, y).tree_ is not None
+    assert KNNRegressor().fit(x, y).algorithm_ == "kd_tree"
     wide, _ = _data(30, k=40)
-    assert KNNRegressor().fit(wide, y).tree_ is None
+    assert KNNRegressor().fit(wide, y).algorithm_ == "brute"
 
 
 @pytest.mark.parametrize("algorithm", ["kd_tree", "brute"])
@@ -153,14 +187,14 @@ def test_make_regressor_by_name():
         make_regressor("cubic")
 
 
-@pytest.mark.parametrize("cls", [LinearRegressor, QuadraticRidge, KNNRegressor])
+@pytest.mark.parametrize("cls", [LinearRegressor, QuadraticRidge, KNNRegressor, MapDecoder])
 def test_bad_input_is_refused_clearly(cls):
     x, rng = _data(20)
     y = rng.normal(size=(20, 2))
     with pytest.raises(NotFittedError, match="not fitted"):
         cls().predict(x)
-    with pytest.raises(ValueError, match=r"shape \(N, m\)"):
-        cls().fit(x, y[:, 0])
+    with pytest.raises(ValueError, match=r"targets must have shape \(N,\) or \(N, m\)"):
+        cls().fit(x, y[:, :, None])
     with pytest.raises(ValueError, match="same number of rows"):
         cls().fit(x, y[:10])
     with pytest.raises(ValueError, match=r"shape \(N, k\)"):
@@ -171,9 +205,23 @@ def test_bad_input_is_refused_clearly(cls):
         cls().fit(bad, y)
     with pytest.raises(TypeError, match="numeric"):
         cls().fit(np.full((20, 3), "a"), y)
+    with pytest.raises(TypeError, match="numeric"):
+        cls().fit(x, np.full((20, 2), "a"))
     model = cls().fit(x, y)
-    with pytest.raises(ValueError, match="fitted on 3 features, got 2"):
+    with pytest.raises(ValueError, match=f"X has 2 features, but {cls.__name__} is expecting 3"):
         model.predict(x[:, :2])
+    with pytest.raises(ValueError, match=r"shape \(N, k\), got shape \(3,\)"):
+        model.predict(x[0])
+
+
+@pytest.mark.parametrize("cls", [LinearRegressor, QuadraticRidge, KNNRegressor, MapDecoder])
+def test_one_dimensional_targets_give_one_dimensional_predictions(cls):
+    x, rng = _data(40)
+    y = rng.uniform(0, 6, size=40)
+    single = cls().fit(x, y).predict(x)
+    column = cls().fit(x, y[:, None]).predict(x)
+    assert single.shape == (40,) and column.shape == (40, 1)
+    np.testing.assert_allclose(single, column[:, 0])
 
 
 def test_bad_parameters_are_refused_clearly():
@@ -247,3 +295,58 @@ def test_map_decoder_rejects_bad_targets_and_settings():
         MapDecoder(degree=0).fit(f, np.random.default_rng(1).uniform(size=(20, 2)))
     with pytest.raises(NotFittedError):
         MapDecoder().predict(f)
+
+
+def test_map_decoder_on_a_line():
+    rng = np.random.default_rng(2)
+    train, test = rng.uniform(0, 6, 200), rng.uniform(0.2, 5.8, 50)
+    train[:2] = [0.0, 6.0]
+
+    def features(u):
+        return np.stack([np.cos(np.pi * u / 6), np.cos(2 * np.pi * u / 6)], axis=1)
+
+    decoder = MapDecoder(degree=3).fit(features(train), train)
+    estimates = decoder.predict(features(test))
+    assert estimates.shape == (50,)
+    assert np.abs(estimates - test).max() < 0.02  # the fine grid's step: 6 m / 60 / 4
+
+
+# -- scikit-learn conventions --------------------------------------------------------------------
+
+
+def _expected_failed_checks(estimator):
+    if isinstance(estimator, MapDecoder):
+        return {
+            "check_regressor_multioutput": "MapDecoder decodes positions on a line or in the "
+            "plane (1 or 2 target columns); the check fits 5 target columns"
+        }
+    return {}
+
+
+@parametrize_with_checks(
+    [LinearRegressor(), QuadraticRidge(), KNNRegressor(), MapDecoder()],
+    expected_failed_checks=_expected_failed_checks,
+)
+def test_scikit_learn_estimator_checks(estimator, check):
+    check(estimator)
+
+
+def test_clone_pipeline_and_grid_search():
+    x, rng = _data(120)
+    y = np.column_stack([x[:, 0] ** 2, x[:, 1] * x[:, 2]]) + 0.05 * rng.normal(size=(120, 2))
+    original = QuadraticRidge(alpha=3.0).fit(x, y)
+    copy = clone(original)
+    assert copy.alpha == 3.0 and not hasattr(copy, "pipeline_")
+    pipeline = make_pipeline(StandardScaler(), KNNRegressor(n_neighbors=4)).fit(x, y)
+    np.testing.assert_allclose(
+        pipeline.predict(x),
+        KNNRegressor(n_neighbors=4)
+        .fit(StandardScaler().fit_transform(x), y)
+        .predict(StandardScaler().fit(x).transform(x)),
+    )
+    search = GridSearchCV(
+        make_regressor("quadratic"), {"alpha": [1e-3, 1e4]}, cv=3, scoring="neg_mean_absolute_error"
+    ).fit(x, y)
+    # A quadratic target: the mild penalty wins over one that shrinks everything towards the mean.
+    assert search.best_params_ == {"alpha": 1e-3}
+    assert search.best_estimator_.predict(x).shape == (120, 2)

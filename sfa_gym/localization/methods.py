@@ -18,17 +18,19 @@ Methods live in plug-in files (the repository's ``baselines/*.py``), loaded by p
 :func:`load_method_file`, so that ``sfa_gym`` never imports them as a package. A plug-in file
 defines at module level either ``make_method(**kwargs)`` or ``METHOD`` (a class called with the
 keyword arguments), and, by convention, a frozen dataclass ``Args`` of its arguments with a
-docstring under each field.
+docstring under each field. ``Args`` is read the way the ``sfa-gym`` command line reads its
+settings (with tyro): :meth:`MethodFactory.arguments` lists its fields with their docstrings, and
+:meth:`MethodFactory.from_command_line` builds a method from options such as ``--n-bands 4``.
+A file that does not follow this protocol raises :class:`PluginError`, naming the file.
 """
 
 from __future__ import annotations
 
-import ast
 import dataclasses
 import hashlib
 import importlib.util
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -41,6 +43,7 @@ __all__ = [
     "Argument",
     "FeatureMethod",
     "MethodFactory",
+    "PluginError",
     "check_views",
     "iter_chunks",
     "list_method_files",
@@ -59,6 +62,11 @@ class FeatureMethod(Protocol):
     ) -> FeatureMethod: ...
 
     def transform(self, views: NDArray[np.uint8]) -> NDArray[np.floating]: ...
+
+
+class PluginError(TypeError):
+    """A plug-in file that does not follow the feature-method protocol (the message names the
+    file and what is wrong)."""
 
 
 def check_views(views: Any, name: str = "views") -> NDArray[np.uint8]:
@@ -119,17 +127,23 @@ class MethodFactory:
         if not isinstance(getattr(method, "name", None), str):
             wrong.insert(0, "name")
         if wrong:
-            raise TypeError(
+            raise PluginError(
                 f"{self.path} made {method!r}, which is not a feature method: it needs "
                 f"name: str, fit(views) and transform(views) (missing or wrong: {wrong})"
             )
         return method
 
     def arguments(self) -> list[Argument]:
-        """The fields of ``Args`` with their docstrings (empty without an ``Args`` dataclass)."""
+        """The fields of ``Args`` with their docstrings (empty without an ``Args`` dataclass),
+        read with the parser that gives the command line its help text."""
         if self.args_type is None:
             return []
-        docs = _field_docstrings(self.path, self.args_type.__name__)
+        import docstring_parser  # tyro's docstring reader
+
+        docs = {
+            param.arg_name: " ".join((param.description or "").split())
+            for param in docstring_parser.parse_from_object(self.args_type).params
+        }
         out = []
         for field in dataclasses.fields(self.args_type):
             if field.default is not dataclasses.MISSING:
@@ -141,25 +155,17 @@ class MethodFactory:
             out.append(Argument(field.name, str(field.type), default, docs.get(field.name, "")))
         return out
 
+    def from_command_line(self, argv: Sequence[str]) -> FeatureMethod:
+        """A fresh method with ``Args`` read from options (``--n-bands 4``; ``--help`` lists the
+        fields with their docstrings and exits), as ``sfa-gym`` reads its settings."""
+        import tyro
 
-def _field_docstrings(path: Path, class_name: str) -> dict[str, str]:
-    """Docstrings written under the fields of ``class_name`` (a string after ``x: int = 1``)."""
-    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-    for node in tree.body:
-        if isinstance(node, ast.ClassDef) and node.name == class_name:
-            docs: dict[str, str] = {}
-            body = node.body
-            for statement, following in zip(body, body[1:], strict=False):
-                if (
-                    isinstance(statement, ast.AnnAssign)
-                    and isinstance(statement.target, ast.Name)
-                    and isinstance(following, ast.Expr)
-                    and isinstance(following.value, ast.Constant)
-                    and isinstance(following.value.value, str)
-                ):
-                    docs[statement.target.id] = " ".join(following.value.value.split())
-            return docs
-    return {}
+        if self.args_type is None:
+            if list(argv):
+                raise PluginError(f"{self.path} has no Args dataclass: it takes no options")
+            return self()
+        args = tyro.cli(self.args_type, args=list(argv), prog=self.name)
+        return self(**{f.name: getattr(args, f.name) for f in dataclasses.fields(args)})
 
 
 def _import_file(path: Path) -> ModuleType:
@@ -169,12 +175,17 @@ def _import_file(path: Path) -> ModuleType:
     module_name = f"sfa_gym_plugin_{path.stem}_{digest}"
     spec = importlib.util.spec_from_file_location(module_name, path)
     if spec is None or spec.loader is None:
-        raise ImportError(f"cannot load {path} as a Python module")
+        raise PluginError(f"cannot load {path} as a Python module")
     module = importlib.util.module_from_spec(spec)
     # Registered before executing: dataclasses look their module up in sys.modules.
     sys.modules[module_name] = module
     try:
         spec.loader.exec_module(module)
+    except Exception as error:
+        del sys.modules[module_name]
+        raise PluginError(
+            f"the plug-in file {path} failed to import: {type(error).__name__}: {error}"
+        ) from error
     except BaseException:
         del sys.modules[module_name]
         raise
@@ -185,6 +196,11 @@ def load_method_file(path: str | Path) -> MethodFactory:
     """Load a feature-method plug-in file by path (e.g. ``baselines/band_means.py``).
 
     Returns a :class:`MethodFactory`; ``factory(**kwargs)`` builds a fresh method.
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: not a ``.py`` file.
+        PluginError: the file fails to import or does not follow the protocol.
     """
     path = Path(path).resolve()
     if not path.is_file():
@@ -194,12 +210,16 @@ def load_method_file(path: str | Path) -> MethodFactory:
     module = _import_file(path)
     make = getattr(module, "make_method", None) or getattr(module, "METHOD", None)
     if make is None or not callable(make):
-        raise TypeError(
+        raise PluginError(
             f"{path} defines neither make_method(**kwargs) nor a METHOD class at module level"
         )
     args_type = getattr(module, "Args", None)
-    if args_type is not None and not dataclasses.is_dataclass(args_type):
-        args_type = None
+    if args_type is not None and not (
+        isinstance(args_type, type) and dataclasses.is_dataclass(args_type)
+    ):
+        raise PluginError(
+            f"{path}: Args must be a dataclass of the method's arguments, got {args_type!r}"
+        )
     return MethodFactory(name=path.stem, path=path, make=make, args_type=args_type)
 
 

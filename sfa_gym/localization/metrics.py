@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from sklearn.base import clone
 from tqdm.auto import tqdm
 
 from sfa_gym.localization.regression import Regressor, make_regressor
@@ -150,15 +151,20 @@ def fit_predict(
     return predict_locations(regressor, test_features)
 
 
-def _factory(regressor: RegressorFactory | str) -> RegressorFactory:
+def _factory(regressor: RegressorFactory | Regressor | str) -> RegressorFactory:
     if isinstance(regressor, str):
         name = regressor
         make_regressor(name)  # fail now, with the list of names, rather than inside the loop
         return lambda: make_regressor(name)
+    if not isinstance(regressor, type) and hasattr(regressor, "get_params"):
+        # A scikit-learn estimator (or Pipeline) instance: every fit gets an unfitted copy, so
+        # the caller's object is never fitted and no split sees another's fit.
+        template = regressor
+        return lambda: clone(template)
     if not callable(regressor):
         raise TypeError(
-            "regressor must be a regressor name or a zero-argument callable returning a fresh "
-            f"regressor, got {regressor!r}"
+            "regressor must be a regressor name, a scikit-learn regressor (cloned for every fit) "
+            f"or a zero-argument callable returning a fresh regressor, got {regressor!r}"
         )
     return regressor
 
@@ -168,11 +174,13 @@ def train_test_mae(
     train_positions: ArrayLike,
     test_features: ArrayLike,
     test_positions: ArrayLike,
-    regressor: RegressorFactory | str = "linear",
+    regressor: RegressorFactory | Regressor | str = "linear",
 ) -> MAE:
     """Fit on a training run, evaluate on a test run (the paper's outdoor protocol).
 
-    Percentages are relative to the test run's coordinate range.
+    ``regressor``: a name for :func:`~sfa_gym.localization.regression.make_regressor`, an
+    unfitted scikit-learn regressor (cloned, so it stays unfitted), or a zero-argument callable
+    returning a fresh regressor. Percentages are relative to the test run's coordinate range.
     """
     estimates = fit_predict(_factory(regressor)(), train_features, train_positions, test_features)
     return mae(estimates, _as_positions(test_positions, "test_positions"))
@@ -181,7 +189,7 @@ def train_test_mae(
 def random_split_mae(
     features: ArrayLike,
     positions: ArrayLike,
-    regressor_factory: RegressorFactory | str = "linear",
+    regressor_factory: RegressorFactory | Regressor | str = "linear",
     n_splits: int = 100,
     seed: int = 0,
     train_fraction: float = 0.5,
@@ -198,8 +206,9 @@ def random_split_mae(
         features: ``(N, k)`` or ``(N, K, k)`` (estimates averaged over the ``K`` views of a
             location).
         positions: ``(N, m)`` ground-truth positions, metres.
-        regressor_factory: Zero-argument callable returning a fresh regressor, or a name for
-            :func:`~sfa_gym.localization.regression.make_regressor`.
+        regressor_factory: Zero-argument callable returning a fresh regressor, a name for
+            :func:`~sfa_gym.localization.regression.make_regressor`, or an unfitted
+            scikit-learn regressor (e.g. a ``Pipeline``), cloned for every split.
         n_splits: Number of random splits (the paper: 100).
         seed: Seed of the splits; same seed, same splits, same numbers.
         train_fraction: Fraction of locations used to fit (the paper: 0.5).

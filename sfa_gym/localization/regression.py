@@ -1,35 +1,44 @@
 """Regression from features ``(N, k)`` to metric positions ``(N, 2)`` (or any ``(N, m)`` target).
 
-Three estimators with the scikit-learn conventions (``__init__`` stores parameters, ``fit`` returns
-``self``, learned state ends in ``_``), written in numpy/scipy only:
+Four scikit-learn regressors (``clone``, ``Pipeline`` and ``GridSearchCV`` work with them; a
+1-D target gives 1-D predictions, as in scikit-learn):
 
 - :class:`LinearRegressor`: least squares with an intercept, as in the paper (optional ridge).
 - :class:`QuadraticRidge`: all products of pairs of standardized features, then ridge regression.
-- :class:`KNNRegressor`: mean position of the ``k`` nearest training features (``cKDTree``).
-- :class:`MapDecoder`: learns each feature as a smooth map over the plane and returns the
-  position whose mapped features best match (for 2-D positions).
+- :class:`KNNRegressor`: mean position of the ``k`` nearest training features.
+- :class:`MapDecoder`: learns each feature as a smooth map over the plane (or a line) and returns
+  the position whose mapped features best match.
 
-:func:`make_regressor` builds one by name (``"linear"``, ``"quadratic"``, ``"knn"``, ``"map"``).
+The first three are thin layers over scikit-learn's own pieces (``StandardScaler``,
+``PolynomialFeatures``, ``LinearRegression``, ``Ridge``, ``KNeighborsRegressor``) that keep this
+project's defaults and error messages. :func:`make_regressor` builds one by name (``"linear"``,
+``"quadratic"``, ``"knn"``, ``"map"``). An unfitted ``predict`` raises scikit-learn's
+:class:`~sklearn.exceptions.NotFittedError`.
 """
 
 from __future__ import annotations
 
+import numbers
 from typing import Any, Literal, Protocol
 
 import numpy as np
+import scipy.sparse
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import cKDTree
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.neighbors import KNeighborsRegressor
+from sklearn.pipeline import Pipeline, make_pipeline
+from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 __all__ = [
     "KNNRegressor",
     "LinearRegressor",
     "MapDecoder",
-    "NotFittedError",
     "QuadraticRidge",
     "REGRESSORS",
     "Regressor",
     "make_regressor",
-    "quadratic_expansion",
 ]
 
 # A quadratic expansion of k inputs has k (k + 3) / 2 columns; beyond this the design matrix of a
@@ -40,180 +49,152 @@ MAX_QUADRATIC_FEATURES = 20_000
 BRUTE_FORCE_DIMENSION = 16
 
 
-class NotFittedError(ValueError, AttributeError):
-    """Raised when ``predict`` is called before ``fit``."""
-
-
 class Regressor(Protocol):
     """What the metrics need from a regression: ``fit(X, Y) -> self`` and ``predict(X) -> Y``."""
 
-    def fit(self, features: ArrayLike, targets: ArrayLike) -> Regressor: ...
+    def fit(self, X: ArrayLike, y: ArrayLike) -> Regressor: ...
 
-    def predict(self, features: ArrayLike) -> NDArray[np.float64]: ...
+    def predict(self, X: ArrayLike) -> NDArray[np.float64]: ...
 
 
-def _check_features(features: ArrayLike, name: str = "features") -> NDArray[np.float64]:
-    array = np.asarray(features)
-    if array.dtype == object or not (np.issubdtype(array.dtype, np.number) or array.dtype == bool):
+def _precheck(data: Any, name: str, ndims: tuple[int, ...], expected: str) -> int | None:
+    """Refuse text and wrongly shaped input with this project's messages, before scikit-learn's
+    validation (which then handles NaN, emptiness, object arrays, data frames). Returns the
+    number of rows, or None where scikit-learn's validation alone decides (sparse input)."""
+    if scipy.sparse.issparse(data):
+        return None  # refused by validate_data, whose message says that dense data is required
+    array = np.asarray(data)
+    if array.dtype.kind in "USV":
         raise TypeError(f"{name} must be a numeric array, got dtype {array.dtype}")
-    if array.ndim != 2:
-        raise ValueError(f"{name} must have shape (N, k), got shape {array.shape}")
-    if array.shape[0] == 0 or array.shape[1] == 0:
-        raise ValueError(f"{name} must have at least one row and one column, got {array.shape}")
-    array = array.astype(np.float64, copy=False)
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"{name} contains NaN or infinite values")
-    return array
-
-
-def _check_fit_input(
-    features: ArrayLike, targets: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    x = _check_features(features)
-    y = np.asarray(targets)
-    if y.ndim == 1:
+    if array.ndim not in ndims:
+        # "Reshape your data" is the phrase scikit-learn's estimator checks look for.
         raise ValueError(
-            f"targets must have shape (N, m), e.g. positions (N, 2), got shape {y.shape}; "
-            "use targets[:, None] for a single output"
+            f"{name} must have shape {expected}, got shape {array.shape}. Reshape your data: "
+            "array.reshape(-1, 1) for a single feature, array.reshape(1, -1) for a single sample"
         )
-    y = _check_features(y, name="targets")
-    if y.shape[0] != x.shape[0]:
-        raise ValueError(
-            f"features and targets must have the same number of rows, got {x.shape[0]} and "
-            f"{y.shape[0]}"
+    return array.shape[0]
+
+
+class _Base(RegressorMixin, BaseEstimator):
+    """Input validation shared by the regressors; targets may have one or several columns."""
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        return tags
+
+    def _validate_fit(
+        self, features: ArrayLike, targets: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``features (N, k)`` and ``targets (N,)`` or ``(N, m)`` as float64; sets
+        ``n_features_in_``."""
+        n_x = _precheck(features, "features", (2,), "(N, k)")
+        if targets is not None:  # None: validate_data says that targets are required
+            n_y = _precheck(targets, "targets", (1, 2), "(N,) or (N, m), e.g. positions (N, 2)")
+            if n_x is not None and n_y is not None and n_x != n_y:
+                raise ValueError(
+                    f"features and targets must have the same number of rows, got {n_x} and {n_y}"
+                )
+        x, y = validate_data(
+            self, features, targets, dtype=np.float64, multi_output=True, y_numeric=True
         )
-    return x, y
+        self._targets_1d = y.ndim == 1
+        return x, np.asarray(y, dtype=np.float64)
 
+    def _as_targets(self, predictions: ArrayLike) -> NDArray[np.float64]:
+        """Predictions shaped as the training targets were: ``(N,)`` or ``(N, m)`` (scikit-learn's
+        ridge returns ``(N,)`` for targets ``(N, 1)``)."""
+        predictions = np.asarray(predictions, dtype=np.float64)
+        return (
+            predictions.reshape(-1)
+            if self._targets_1d
+            else predictions.reshape(len(predictions), -1)
+        )
 
-class _FittedMixin:
-    n_features_in_: int
-
-    def _check_predict_input(self, features: ArrayLike) -> NDArray[np.float64]:
-        if not hasattr(self, "n_features_in_"):
-            raise NotFittedError(
-                f"this {type(self).__name__} is not fitted yet; call fit(features, targets) first"
-            )
-        x = _check_features(features)
-        if x.shape[1] != self.n_features_in_:
-            raise ValueError(
-                f"{type(self).__name__} was fitted on {self.n_features_in_} features, "
-                f"got {x.shape[1]}"
-            )
-        return x
-
-
-def _ridge(
-    x: NDArray[np.float64], y: NDArray[np.float64], alpha: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Ridge with an unpenalized intercept: returns ``(coef (p, m), intercept (m,))``.
-
-    Solved through the eigen-decomposition of the centred design's Gram matrix (``N >= p``,
-    several times faster than an SVD of the tall design) or its SVD (``p > N``). Directions with
-    negligible variance (constant or duplicated features) carry no information and are dropped,
-    as ``lstsq``'s ``rcond`` does, which keeps ``alpha = 0`` stable for rank-deficient designs.
-    """
-    x_mean = x.mean(axis=0)
-    y_mean = y.mean(axis=0)
-    xc = x - x_mean
-    yc = y - y_mean
-    eps = np.finfo(np.float64).eps
-    if xc.shape[0] >= xc.shape[1]:
-        variances, v = np.linalg.eigh(xc.T @ xc)  # squared singular values, ascending
-        # The Gram matrix squares the condition number: eigenvalues below ~1e-10 of the largest
-        # are round-off (for standardized features: near-collinear directions).
-        keep = variances > variances.max(initial=0.0) * max(1e-10, xc.shape[0] * eps)
-        v = v[:, keep]
-        coef = v @ ((v.T @ (xc.T @ yc)) / (variances[keep] + alpha)[:, None])
-    else:
-        u, s, vt = np.linalg.svd(xc, full_matrices=False)
-        keep = s > s.max(initial=0.0) * max(xc.shape) * eps
-        shrink = s[keep] / (s[keep] ** 2 + alpha)
-        coef = vt[keep].T @ (shrink[:, None] * (u[:, keep].T @ yc))
-    intercept = y_mean - x_mean @ coef
-    return coef, intercept
+    def _validate_predict(self, features: ArrayLike) -> NDArray[np.float64]:
+        check_is_fitted(self)
+        _precheck(features, "features", (2,), "(N, k)")
+        return validate_data(self, features, dtype=np.float64, reset=False)
 
 
 def _check_alpha(alpha: float) -> float:
-    if isinstance(alpha, bool) or not isinstance(alpha, int | float) or not np.isfinite(alpha):
+    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not np.isfinite(alpha):
         raise TypeError(f"alpha must be a finite number >= 0, got {alpha!r}")
     if alpha < 0:
         raise ValueError(f"alpha must be >= 0, got {alpha}")
     return float(alpha)
 
 
-class LinearRegressor(_FittedMixin):
+def _least_squares(alpha: float) -> LinearRegression | Ridge:
+    """Least squares with an unpenalized intercept: ordinary (minimum-norm where the design is
+    rank-deficient) for ``alpha = 0``, ridge otherwise."""
+    return LinearRegression() if alpha == 0 else Ridge(alpha=alpha)
+
+
+class LinearRegressor(_Base):
     """Least squares with an intercept: ``Y ~ X @ coef_ + intercept_`` (the paper's regression).
 
     Args:
         alpha: Ridge penalty on the coefficients of the standardized features (0 = ordinary least
-            squares; rank-deficient designs get the minimum-norm solution).
+            squares; rank-deficient designs get the minimum-norm solution in standardized units).
 
     Attributes:
-        coef_: (k, m) float64. Coefficients in the units of the raw features.
-        intercept_: (m,) float64.
+        coef_: (k, m) float64, or (k,) for 1-D targets. Coefficients in the units of the raw
+            features.
+        intercept_: (m,) float64, or a float for 1-D targets.
         n_features_in_: int.
     """
 
     def __init__(self, alpha: float = 0.0) -> None:
         self.alpha = alpha
 
-    def fit(self, features: ArrayLike, targets: ArrayLike) -> LinearRegressor:
-        """Fit on ``features (N, k)`` and ``targets (N, m)`` (positions in metres)."""
+    def fit(self, X: ArrayLike, y: ArrayLike) -> LinearRegressor:
+        """Fit on features ``X (N, k)`` and targets ``y (N, m)`` (positions, metres) or ``(N,)``."""
         alpha = _check_alpha(self.alpha)
-        x, y = _check_fit_input(features, targets)
-        # The ridge penalty acts on standardized features so that alpha does not depend on units.
-        scale = x.std(axis=0)
-        scale[scale == 0] = 1.0
-        coef, intercept = _ridge(x / scale, y, alpha)
-        self.coef_ = coef / scale[:, None]
-        self.intercept_ = intercept
-        self.n_features_in_ = x.shape[1]
+        x, y = self._validate_fit(X, y)
+        # The ridge penalty acts on standardized features so that alpha does not depend on units;
+        # the regression centres the data itself.
+        scale = StandardScaler(with_mean=False).fit(x).scale_
+        model = _least_squares(alpha).fit(x / scale, y)
+        coef = np.reshape(model.coef_, (-1, x.shape[1])) / scale  # (m, k)
+        if self._targets_1d:
+            self.coef_, self.intercept_ = coef[0], float(model.intercept_)
+        else:
+            self.coef_, self.intercept_ = coef.T, np.reshape(model.intercept_, -1)
         return self
 
-    def predict(self, features: ArrayLike) -> NDArray[np.float64]:
-        """Predicted targets ``(N, m)`` for ``features (N, k)``."""
-        x = self._check_predict_input(features)
-        return x @ self.coef_ + self.intercept_
+    def predict(self, X: ArrayLike) -> NDArray[np.float64]:
+        """Predicted targets ``(N, m)`` (or ``(N,)``) for features ``X (N, k)``."""
+        x = self._validate_predict(X)
+        return self._as_targets(x @ self.coef_ + self.intercept_)
 
 
-def quadratic_expansion(features: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``(N, k)`` -> ``(N, k + k (k + 1) / 2)``: the inputs, then ``x_i x_j`` for ``i <= j``."""
-    n, k = features.shape
-    rows, cols = np.triu_indices(k)
-    return np.concatenate([features, features[:, rows] * features[:, cols]], axis=1)
-
-
-class QuadraticRidge(_FittedMixin):
+class QuadraticRidge(_Base):
     """Ridge regression on the quadratic expansion of standardized features.
 
     The features are z-scored with the training mean and std, expanded to all linear and
-    pairwise-product terms (:func:`quadratic_expansion`), z-scored again, and fitted with ridge
-    (intercept not penalized).
+    pairwise-product terms ``x_i x_j``, ``i <= j`` (``PolynomialFeatures(2)``), z-scored again,
+    and fitted with ridge (intercept not penalized).
 
     Args:
-        alpha: Ridge penalty on the standardized expanded features (``>= 0``). With ``N`` samples
-            each column has squared norm ``N``, so ``alpha`` much smaller than ``N`` is a mild
-            penalty.
+        alpha: Ridge penalty on the standardized expanded features (``>= 0``; 0 = ordinary least
+            squares). With ``N`` samples each column has squared norm ``N``, so ``alpha`` much
+            smaller than ``N`` is a mild penalty.
 
     Attributes:
+        pipeline_: the fitted ``StandardScaler -> PolynomialFeatures -> StandardScaler ->
+            Ridge`` (``LinearRegression`` for ``alpha = 0``); ``p = k (k + 3) / 2`` expanded
+            features.
         n_features_in_: int.
-        mean_, scale_: (k,) float64. Standardization of the raw features.
-        expanded_mean_, expanded_scale_: (p,) float64. Standardization of the expanded
-            features, ``p = k (k + 3) / 2``.
-        coef_: (p, m) float64.
-        intercept_: (m,) float64.
     """
 
     def __init__(self, alpha: float = 1.0) -> None:
         self.alpha = alpha
 
-    def _expand(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return quadratic_expansion((x - self.mean_) / self.scale_)
-
-    def fit(self, features: ArrayLike, targets: ArrayLike) -> QuadraticRidge:
-        """Fit on ``features (N, k)`` and ``targets (N, m)``."""
+    def fit(self, X: ArrayLike, y: ArrayLike) -> QuadraticRidge:
+        """Fit on features ``X (N, k)`` and targets ``y (N, m)`` or ``(N,)``."""
         alpha = _check_alpha(self.alpha)
-        x, y = _check_fit_input(features, targets)
+        x, y = self._validate_fit(X, y)
         k = x.shape[1]
         n_expanded = k * (k + 3) // 2
         if n_expanded > MAX_QUADRATIC_FEATURES:
@@ -222,44 +203,37 @@ class QuadraticRidge(_FittedMixin):
                 f"{MAX_QUADRATIC_FEATURES}); reduce the features first (e.g. PCA) or use "
                 "LinearRegressor or KNNRegressor"
             )
-        self.mean_ = x.mean(axis=0)
-        scale = x.std(axis=0)
-        scale[scale == 0] = 1.0
-        self.scale_ = scale
-        expanded = self._expand(x)
-        self.expanded_mean_ = expanded.mean(axis=0)
-        expanded_scale = expanded.std(axis=0)
-        expanded_scale[expanded_scale == 0] = 1.0
-        self.expanded_scale_ = expanded_scale
-        self.coef_, self.intercept_ = _ridge(
-            (expanded - self.expanded_mean_) / expanded_scale, y, alpha
-        )
-        self.n_features_in_ = k
+        self.pipeline_: Pipeline = make_pipeline(
+            StandardScaler(),
+            PolynomialFeatures(degree=2, include_bias=False),
+            StandardScaler(),
+            _least_squares(alpha),
+        ).fit(x, y)
         return self
 
-    def predict(self, features: ArrayLike) -> NDArray[np.float64]:
-        """Predicted targets ``(N, m)`` for ``features (N, k)``."""
-        x = self._check_predict_input(features)
-        expanded = (self._expand(x) - self.expanded_mean_) / self.expanded_scale_
-        return expanded @ self.coef_ + self.intercept_
+    def predict(self, X: ArrayLike) -> NDArray[np.float64]:
+        """Predicted targets ``(N, m)`` (or ``(N,)``) for features ``X (N, k)``."""
+        x = self._validate_predict(X)
+        return self._as_targets(self.pipeline_.predict(x))
 
 
-class KNNRegressor(_FittedMixin):
-    """Mean target of the ``n_neighbors`` nearest training samples (Euclidean, ``cKDTree``).
+class KNNRegressor(_Base):
+    """Mean target of the ``n_neighbors`` nearest training samples (Euclidean;
+    ``KNeighborsRegressor``).
 
     Args:
         n_neighbors: Number of neighbours averaged (``>= 1``; at most the number of training
             samples).
         weights: ``"uniform"``: plain mean; ``"distance"``: weighted by inverse distance (an exact
-            match returns the matched target).
-        algorithm: ``"kd_tree"`` (``scipy.spatial.cKDTree``), ``"brute"`` (all distances, by matrix
-            products in chunks) or ``"auto"``: the tree up to ``BRUTE_FORCE_DIMENSION`` features,
-            brute force above, where a k-d tree degenerates into a slower exhaustive search.
+            match returns the matched target; to ~1e-7 relative with brute force, which computes
+            distances from dot products).
+        algorithm: ``"kd_tree"``, ``"brute"`` (all distances, by matrix products) or ``"auto"``:
+            the tree up to ``BRUTE_FORCE_DIMENSION`` features, brute force above, where a k-d tree
+            degenerates into a slower exhaustive search.
 
     Attributes:
-        tree_: scipy.spatial.cKDTree over the training features, or None (brute force).
-        features_: (N, k) float64, the training features.
-        targets_: (N, m) float64.
+        algorithm_: ``"kd_tree"`` or ``"brute"``, the search used.
+        neighbors_: the fitted ``sklearn.neighbors.KNeighborsRegressor``.
         n_features_in_: int.
     """
 
@@ -273,8 +247,9 @@ class KNNRegressor(_FittedMixin):
         self.weights = weights
         self.algorithm = algorithm
 
-    def fit(self, features: ArrayLike, targets: ArrayLike) -> KNNRegressor:
-        """Store ``features (N, k)`` and ``targets (N, m)``; needs ``N >= n_neighbors``."""
+    def fit(self, X: ArrayLike, y: ArrayLike) -> KNNRegressor:
+        """Store features ``X (N, k)`` and targets ``y (N, m)`` or ``(N,)``; needs
+        ``N >= n_neighbors``."""
         if isinstance(self.n_neighbors, bool) or not isinstance(self.n_neighbors, int | np.integer):
             raise TypeError(f"n_neighbors must be an int >= 1, got {self.n_neighbors!r}")
         if self.n_neighbors < 1:
@@ -285,79 +260,53 @@ class KNNRegressor(_FittedMixin):
             raise ValueError(
                 f"algorithm must be 'auto', 'kd_tree' or 'brute', got {self.algorithm!r}"
             )
-        x, y = _check_fit_input(features, targets)
+        x, y = self._validate_fit(X, y)
         if x.shape[0] < self.n_neighbors:
             raise ValueError(
                 f"KNNRegressor with n_neighbors={self.n_neighbors} needs at least that many "
-                f"training samples, got {x.shape[0]}"
+                f"training samples, got n_samples={x.shape[0]}"
             )
-        use_tree = self.algorithm == "kd_tree" or (
-            self.algorithm == "auto" and x.shape[1] <= BRUTE_FORCE_DIMENSION
-        )
-        self.tree_ = cKDTree(x) if use_tree else None
-        self.features_ = x
-        self.targets_ = y
-        self.n_features_in_ = x.shape[1]
+        if self.algorithm == "auto":
+            self.algorithm_ = "kd_tree" if x.shape[1] <= BRUTE_FORCE_DIMENSION else "brute"
+        else:
+            self.algorithm_ = self.algorithm
+        self.neighbors_ = KNeighborsRegressor(
+            n_neighbors=int(self.n_neighbors), weights=self.weights, algorithm=self.algorithm_
+        ).fit(x, y)
         return self
 
-    def predict(self, features: ArrayLike) -> NDArray[np.float64]:
-        """Predicted targets ``(N, m)`` for ``features (N, k)``."""
-        x = self._check_predict_input(features)
-        k = int(self.n_neighbors)
-        if self.tree_ is not None:
-            distances, index = self.tree_.query(x, k=k)
-            distances = distances.reshape(len(x), k)
-            index = index.reshape(len(x), k)
-        else:
-            distances, index = self._brute_neighbours(x, k)
-        neighbours = self.targets_[index]  # (N, k, m)
-        if self.weights == "uniform":
-            return neighbours.mean(axis=1)
-        exact = distances == 0
-        with np.errstate(divide="ignore"):
-            w = 1.0 / distances
-        # Where a query coincides with training samples, only those samples count.
-        has_exact = exact.any(axis=1)
-        w[has_exact] = exact[has_exact].astype(np.float64)
-        w /= w.sum(axis=1, keepdims=True)
-        return np.einsum("nk,nkm->nm", w, neighbours)
-
-    def _brute_neighbours(
-        self, x: NDArray[np.float64], k: int
-    ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
-        """Distances and indices ``(n, k)`` of the ``k`` nearest training samples, any order."""
-        train = self.features_
-        train_sq = np.einsum("ij,ij->i", train, train)
-        index = np.empty((len(x), k), dtype=np.intp)
-        distances = np.empty((len(x), k))
-        # Chunks of queries keep the (chunk, N) distance matrix near 64 MB.
-        chunk = max(1, (8 << 20) // len(train))
-        for start in range(0, len(x), chunk):
-            part = slice(start, start + chunk)
-            q = x[part]
-            d2 = train_sq[None, :] - 2.0 * (q @ train.T)
-            if k < len(train):
-                index[part] = np.argpartition(d2, k - 1, axis=1)[:, :k]
-            else:
-                index[part] = np.arange(len(train))
-            # Exact distances of the chosen neighbours (the expansion loses exact zeros).
-            distances[part] = np.linalg.norm(q[:, None, :] - train[index[part]], axis=2)
-        return distances, index
+    def predict(self, X: ArrayLike) -> NDArray[np.float64]:
+        """Predicted targets ``(N, m)`` (or ``(N,)``) for features ``X (N, k)``."""
+        x = self._validate_predict(X)
+        return self._as_targets(self.neighbors_.predict(x))
 
 
-def _cosine_basis(positions: NDArray[np.float64], low, high, degree: int) -> NDArray[np.float64]:
-    """``cos(i pi u) cos(j pi v)`` for ``i + j <= degree``, ``(u, v)`` = positions scaled to
-    ``[0, 1]`` over the box ``low..high``: the smooth functions of a rectangle (the slowest
-    features of a uniform random walk in a box are the first of them)."""
+def _cosine_basis(
+    positions: NDArray[np.float64],
+    low: NDArray[np.float64],
+    high: NDArray[np.float64],
+    degree: int,
+) -> NDArray[np.float64]:
+    """``cos(i pi u) cos(j pi v)`` for ``i + j <= degree`` (``cos(i pi u)``, ``i <= degree``, on
+    a line), ``(u, v)`` = ``positions (N, m)`` scaled to ``[0, 1]`` over the box ``low..high``:
+    the smooth functions of a rectangle (the slowest features of a uniform random walk in a box
+    are the first of them). Column 0 is the constant."""
     u = (positions - low) / (high - low)
     cu = np.cos(np.pi * np.arange(degree + 1)[None, :] * u[:, :1])
+    if positions.shape[1] == 1:
+        return cu
     cv = np.cos(np.pi * np.arange(degree + 1)[None, :] * u[:, 1:2])
     return np.stack(
         [cu[:, i] * cv[:, j] for i in range(degree + 1) for j in range(degree + 1 - i)], axis=1
     )
 
 
-class MapDecoder(_FittedMixin):
+def _grid(axes: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """All points ``(prod of lengths, m)`` of the grid spanned by ``m`` axes."""
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
+
+
+class MapDecoder(_Base):
     """Position by inverting a smooth map of each feature over the plane.
 
     Instead of regressing position on the features, ``fit`` learns the forward map: each
@@ -372,43 +321,60 @@ class MapDecoder(_FittedMixin):
     position on features represents well near the walls; the forward map has few parameters
     per feature, so it needs few labelled positions.
 
-    Estimates lie inside the box of the training positions. Targets must be 2-D positions.
+    Estimates lie inside the box of the training positions. Targets are 2-D positions
+    ``(N, 2)``, or positions on a line (``(N, 1)`` or ``(N,)``, basis ``cos(i pi u)``).
 
     Args:
         degree: highest total degree ``i + j`` of the cosine basis (``(degree+1)(degree+2)/2``
-            coefficients per feature).
+            coefficients per feature in the plane).
         grid: coarse search grid points per axis; the fine search divides one coarse cell into
             4 steps each way around the best point.
+
+    Attributes:
+        coef_: (n_basis - 1, k) float64, intercept_: (k,) float64. The map from the non-constant
+            basis functions to the features.
+        weights_: (k,) float64. Inverse variance of each feature around its map.
+        low_, high_: (m,) float64. The box of the training positions, metres.
+        n_features_in_: int.
     """
 
     def __init__(self, degree: int = 6, grid: int = 61) -> None:
         self.degree = degree
         self.grid = grid
 
-    def fit(self, features: ArrayLike, targets: ArrayLike) -> MapDecoder:
-        x, y = _check_fit_input(features, targets)
+    def fit(self, X: ArrayLike, y: ArrayLike) -> MapDecoder:
+        """Fit on features ``X (N, k)`` and positions ``y (N, 2)`` (or ``(N, 1)``, ``(N,)``)."""
         for name, low in (("degree", 1), ("grid", 5)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
                 raise ValueError(f"{name} must be an int >= {low}, got {value!r}")
-        if y.shape[1] != 2:
-            raise ValueError(f"MapDecoder decodes 2-D positions, got targets of shape {y.shape}")
+        x, y = self._validate_fit(X, y)
+        y = y.reshape(len(y), -1)
+        if y.shape[1] > 2:
+            raise ValueError(
+                f"MapDecoder decodes 2-D positions (or positions on a line), got targets of shape "
+                f"{y.shape}"
+            )
+        if len(y) < 2:
+            raise ValueError(f"MapDecoder needs positions spread over an area, got {len(y)} sample")
         low, high = y.min(axis=0), y.max(axis=0)
         if np.any(high <= low):
             raise ValueError(
                 f"the training positions span no area (range {high - low} m); MapDecoder needs "
-                "positions spread over both axes"
+                "positions spread over every axis"
             )
-        basis = _cosine_basis(y, low, high, self.degree)
-        coef, intercept = _ridge(basis[:, 1:], x, 1e-8 * len(x))
-        residual = x - (basis[:, 1:] @ coef + intercept)
+        basis = _cosine_basis(y, low, high, self.degree)[:, 1:]
+        # A tiny ridge keeps the fit defined where the positions do not pin down every basis
+        # function (few positions, or positions along a few lines).
+        model = Ridge(alpha=1e-8 * len(x)).fit(basis, x)
+        coef, intercept = model.coef_.T, model.intercept_
+        residual = x - (basis @ coef + intercept)
         # Features that the map explains worse count less; the floor keeps a perfectly explained
         # feature from dominating through round-off.
         variance = residual.var(axis=0)
         self.weights_ = 1.0 / np.maximum(variance, 1e-6 * x.var(axis=0).max() + 1e-300)
         self.coef_, self.intercept_ = coef, intercept
         self.low_, self.high_ = low, high
-        self.n_features_in_ = x.shape[1]
         return self
 
     def _mapped(self, positions: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -416,34 +382,34 @@ class MapDecoder(_FittedMixin):
             self.intercept_
         )
 
-    def predict(self, features: ArrayLike) -> NDArray[np.float64]:
-        x = self._check_predict_input(features)
+    def predict(self, X: ArrayLike) -> NDArray[np.float64]:
+        """Positions ``(N, m)`` (``(N,)`` if fitted on 1-D targets) for features ``X (N, k)``."""
+        x = self._validate_predict(X)
         w = np.sqrt(self.weights_)
-        axes = [
-            np.linspace(lo, hi, self.grid) for lo, hi in zip(self.low_, self.high_, strict=True)
-        ]
-        coarse = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
+        m = len(self.low_)
+        coarse = _grid(
+            [np.linspace(lo, hi, self.grid) for lo, hi in zip(self.low_, self.high_, strict=True)]
+        )
         # The coarse grid's features, mapped once: every row is scored against all of them
         # with one matrix product (the squared norm of a row does not change its argmin).
         coarse_mapped = self._mapped(coarse) * w
         coarse_norms = (coarse_mapped**2).sum(axis=1)
         cell = (self.high_ - self.low_) / (self.grid - 1)
-        offsets = np.linspace(-1.0, 1.0, 2 * 4 + 1)
-        fine = np.stack(np.meshgrid(offsets, offsets, indexing="ij"), axis=-1).reshape(-1, 2)
-        out = np.empty((len(x), 2))
+        fine = _grid([np.linspace(-1.0, 1.0, 2 * 4 + 1)] * m)
+        out = np.empty((len(x), m))
         for i0 in range(0, len(x), 1024):  # bounds the (rows x candidates) score matrix
             part = x[i0 : i0 + 1024]
             score = coarse_norms[None, :] - 2.0 * (part * w) @ coarse_mapped.T
             best = coarse[score.argmin(axis=1)]
             local = np.clip(best[:, None, :] + fine[None] * cell, self.low_, self.high_)
             n, c, _ = local.shape
-            mapped = self._mapped(local.reshape(n * c, 2)).reshape(n, c, -1)
+            mapped = self._mapped(local.reshape(n * c, m)).reshape(n, c, -1)
             nearest = (((mapped - part[:, None, :]) * w) ** 2).sum(axis=2).argmin(axis=1)
             out[i0 : i0 + 1024] = local[np.arange(n), nearest]
-        return out
+        return self._as_targets(out)
 
 
-REGRESSORS: dict[str, type] = {
+REGRESSORS: dict[str, type[_Base]] = {
     "linear": LinearRegressor,
     "quadratic": QuadraticRidge,
     "knn": KNNRegressor,
