@@ -12,6 +12,7 @@ import pytest
 
 from sfa_gym.localization.methods import (
     FeatureMethod,
+    PluginError,
     check_views,
     list_method_files,
     load_method_file,
@@ -93,6 +94,35 @@ def test_bad_plugin_files_are_refused_clearly(tmp_path):
     incomplete.write_text("def make_method(**kwargs):\n    return object()\n")
     with pytest.raises(TypeError, match="not a feature method.*'name', 'fit', 'transform'"):
         load_method_file(incomplete)()
+
+
+def test_files_that_break_the_protocol_get_an_error_naming_the_file(tmp_path):
+    broken = tmp_path / "broken.py"
+    broken.write_text("import no_such_module_here\n")
+    with pytest.raises(PluginError, match=r"broken\.py failed to import.*no_such_module_here"):
+        load_method_file(broken)
+    not_a_dataclass = tmp_path / "loose_args.py"
+    not_a_dataclass.write_text(
+        "class Args:\n    n: int = 1\n\ndef make_method(**kwargs):\n    return None\n"
+    )
+    with pytest.raises(PluginError, match=r"loose_args\.py: Args must be a dataclass"):
+        load_method_file(not_a_dataclass)
+
+
+def test_args_are_read_from_options_like_the_command_line(capsys):
+    factory = load_method_file(BASELINES / "fft_magnitude.py")
+    views = np.zeros((2, 40, 350, 3), dtype=np.uint8)
+    method = factory.from_command_line(["--n-bands", "2", "--n-frequencies", "3"])
+    assert method.fit(views).transform(views).shape == (2, 2 * 3 * 3)
+    with pytest.raises(SystemExit):
+        factory.from_command_line(["--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for argument in factory.arguments():
+        assert "--" + argument.name.replace("_", "-") in text
+    # the docstring under the field is its help, in both readings
+    doc = {a.name: a.doc for a in factory.arguments()}["n_frequencies"]
+    assert doc.startswith("lowest DFT frequencies kept per band and channel")
+    assert "lowest DFT frequencies kept per band and channel" in text
 
 
 def test_two_plugins_with_the_same_stem_do_not_clash(tmp_path):

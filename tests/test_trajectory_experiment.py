@@ -14,8 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sfa_gym.experiments import TrajectoryExperiment, format_table, run_trajectory_experiment
-from sfa_gym.experiments.trajectory import eval_windows, in_rectangle
+from sfa_gym.experiments import (
+    SFASettings,
+    TrajectoryExperiment,
+    format_table,
+    run_trajectory_experiment,
+)
+from sfa_gym.geometry import in_rectangle
 from sfa_gym.localization.methods import load_method_file
 from sfa_gym.recording.runfile import load_run
 
@@ -31,8 +36,7 @@ TINY = TrajectoryExperiment(
     test_every=2,
     step=4,
     eval_rotations=5,
-    network="tiny",
-    node_dim=8,
+    sfa=SFASettings(network="tiny", node_dim=8),
 )
 
 
@@ -56,7 +60,8 @@ def test_writes_results_model_runs_and_figures(experiment):
     assert results["format"] == "sfa-gym-localization"
     assert results["protocol"] == "trajectory"
     assert results["config"] == json.loads(json.dumps(dataclasses.asdict(TINY)))
-    assert results["eval_windows"] == [0, 2, 4, 6, 8]
+    # 40 columns in steps of 4: 10 rotations, 5 of them evaluated, evenly spaced
+    assert results["n_rotations"] == 10 and results["eval_windows"] == [0, 2, 4, 6, 8]
     assert set(results["methods"]) == {"hierarchical_sfa", "band_means"}
     table = format_table(results)
     assert "hierarchical_sfa" in table and "band_means" in table and "paper (2013)" in table
@@ -103,16 +108,6 @@ def test_outputs_are_reused_on_a_second_call(experiment):
     assert again["methods"]["hierarchical_sfa"] == results["methods"]["hierarchical_sfa"]
 
 
-def test_eval_windows_and_rectangle():
-    assert eval_windows(350, 5, 14).tolist() == list(range(0, 70, 5))
-    assert eval_windows(40, 4, None).tolist() == list(range(10))
-    assert eval_windows(40, 4, 50).tolist() == list(range(10))
-    assert eval_windows(40, 4, 3).tolist() == [0, 3, 6]
-    points = np.array([[-2.0, -2.0], [-1.5, -2.0], [0.0, 0.0]])
-    assert in_rectangle(points, (-3, -1.5, -3, -1.5)).tolist() == [True, False, False]
-    assert not in_rectangle(points, None).any()
-
-
 @pytest.mark.parametrize(
     ("change", "message"),
     [
@@ -120,15 +115,18 @@ def test_eval_windows_and_rectangle():
         ({"eval_rotations": 0}, "eval_rotations must be a positive int"),
         ({"spacing": 0.0}, "spacing must be positive"),
         ({"pattern": "spiral"}, "pattern must be one of"),
-        ({"exclude": (-1.0, -2.0, -3.0, -1.5)}, "exclude must satisfy xmin < xmax"),
+        ({"exclude": (-1.0, -2.0, -3.0, -1.5)}, "exclude must be finite with xmin < xmax"),
         ({"exclude": (0.0, 1.0)}, "exclude must be a rectangle"),
         ({"test_driver": "figure8"}, "test_driver must be one of"),
         ({"test_driver": "random_walk"}, "set test_steps"),
         ({"test_insets": ()}, "test_insets must be a non-empty tuple"),
         ({"train_steps": 1}, "train_steps must be None or an int >= 2"),
         ({"panorama": (10,)}, "panorama must be None or"),
-        ({"network": "huge"}, "network must be one of"),
-        ({"weight_sharing": "columns"}, "weight_sharing must be one of"),
+        ({"sfa": SFASettings(network="huge")}, "network must be one of"),
+        ({"sfa": SFASettings(weight_sharing="columns")}, "weight_sharing must be one of"),
+        ({"sfa": SFASettings(node_dim=0)}, "node_dim must be a positive int"),
+        ({"step": 3}, "not a multiple of step 3"),
+        ({"env_id": "sfa_gym/Nope-v0"}, "is not a registered env"),
     ],
 )
 def test_validate_names_the_bad_setting(change, message, tmp_path):

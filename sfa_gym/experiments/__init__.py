@@ -3,12 +3,17 @@
 - :mod:`sfa_gym.experiments.grid`: the paper's simulator protocol (a grid of positions).
 - :mod:`sfa_gym.experiments.trajectory`: the paper's outdoor protocol (a training run and a
   test run through a region never visited in training).
+- :mod:`sfa_gym.experiments.common`: the evaluation loop both share.
+- :mod:`sfa_gym.experiments.settings`: the SFA network's settings, nested in both protocols'.
+- :mod:`sfa_gym.experiments.report`, :mod:`sfa_gym.experiments.figures`: what they write.
 """
 
 from __future__ import annotations
 
-from sfa_gym.experiments.common import SlowFeatureMethod, format_table
+from sfa_gym.experiments.common import SlowFeatureMethod, evaluate_methods
 from sfa_gym.experiments.grid import PAPER_SIM_RESULTS, GridExperiment, run_grid_experiment
+from sfa_gym.experiments.report import format_table
+from sfa_gym.experiments.settings import SFASettings
 from sfa_gym.experiments.trajectory import (
     PAPER_OUTDOOR_RESULTS,
     TrajectoryExperiment,
@@ -19,8 +24,10 @@ __all__ = [
     "PAPER_OUTDOOR_RESULTS",
     "PAPER_SIM_RESULTS",
     "GridExperiment",
+    "SFASettings",
     "SlowFeatureMethod",
     "TrajectoryExperiment",
+    "evaluate_methods",
     "format_table",
     "run_grid_experiment",
     "run_trajectory_experiment",

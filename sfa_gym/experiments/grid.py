@@ -1,4 +1,4 @@
-"""The paper's localization experiments, end to end: render, learn features, regress, measure.
+"""The paper's simulator localization protocol: a grid of positions.
 
 :func:`run_grid_experiment` is the simulator protocol of Metka, Franzius & Bauer-Wersing (2013):
 the rover is placed on a regular grid of positions with random headings; a training subset of
@@ -12,54 +12,55 @@ evaluations are reported:
 - ``train_test``: regression fitted on the training positions and applied to the test positions.
 
 Every feature method (hierarchical SFA and the plug-ins of ``baselines/``) sees the same views,
-is fitted on the same training sequence and is evaluated by the same regressions, so that the
-numbers compare. Estimates are averaged over the rotated views of a location, as in the paper.
+is fitted on the same training sequence and is evaluated by the same regressions
+(:func:`~sfa_gym.experiments.common.evaluate_methods`), so that the numbers compare. Estimates
+are averaged over the rotated views of a location, as in the paper.
 """
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym.experiments.common import (
-    FIGURE_REGRESSOR,
-    SlowFeatureMethod,
-    check_sfa_settings,
-    fit_method,
-    invariance_entry,
+from sfa_gym.experiments.common import evaluate_methods, methods_with_sfa
+from sfa_gym.experiments.report import (
+    check_out_folder,
     mae_dict,
-    methods_with_sfa,
     results_header,
-    rotation_features,
+    write_results,
 )
-from sfa_gym.localization import fit_predict, mae, make_regressor, random_split_mae
+from sfa_gym.experiments.settings import (
+    EnvId,
+    SFASettings,
+    check_choice,
+    check_env_id,
+    check_int,
+    check_positive_int,
+)
+from sfa_gym.localization import random_split_mae
 from sfa_gym.localization.methods import FeatureMethod
-from sfa_gym.rotation import n_rotations
-from sfa_gym.sfa import HierarchicalSFA
+from sfa_gym.rotation import Rotation
+from sfa_gym.sfa.io import save_model
 
-__all__ = [
-    "GridExperiment",
-    "PAPER_SIM_RESULTS",
-    "SlowFeatureMethod",
-    "run_grid_experiment",
-]
+__all__ = ["GridExperiment", "PAPER_SIM_RESULTS", "run_grid_experiment", "select_positions"]
 
 PAPER_SIM_RESULTS = {"mae_percent": [1.83, 1.68], "eta_phi_max": 0.17}
 """The paper's simulator figures: MAE (x, z) in % of the range over 100 random 50/50 splits."""
+
+GridOrder = Literal["hilbert", "serpentine", "raster"]
 
 
 @dataclass(frozen=True)
 class GridExperiment:
     """Settings of the grid protocol (defaults: the paper's simulator experiment)."""
 
-    env_id: str = "sfa_gym/OmniRover-v0"
+    env_id: EnvId = "sfa_gym/OmniRover-v0"
     """registered env to render the panoramas with"""
     world_seed: int = 0
     """seed of the world's procedural variation"""
@@ -69,32 +70,31 @@ class GridExperiment:
     """training positions (visited in ``order``)"""
     n_test: int = 196
     """test positions, disjoint from the training positions"""
-    order: str = "hilbert"
+    order: GridOrder = "hilbert"
     """order of the training positions: "hilbert", "serpentine" or "raster" """
     step: int = 5
-    """simulated rotation step, columns"""
-    network: str = "paper_sim"
-    """SFA architecture: a preset of :mod:`sfa_gym.sfa.presets` ("paper_sim", "paper_outdoor",
-    "tiny")"""
-    node_dim: int = 32
-    """linear SFA dimension and output dimension of every node"""
-    n_outputs: int = 8
-    """slow features used (the paper: 8)"""
-    weight_sharing: str = "rows"
-    """nodes that share weights: "rows" (one node per row of each layer's grid: rows see sky,
-    horizon or ground, while along the width every position sees the same patches once all
-    rotations are trained on), "layer" (one node per layer, the paper) or "none" (one per
-    position; no rotation shortcut, slow)"""
+    """simulated rotation step, columns (must divide the panorama width)"""
+    sfa: SFASettings = SFASettings()
+    """the hierarchical SFA network"""
     n_splits: int = 100
     """random 50/50 splits of the test positions (the paper: 100)"""
     seed: int = 0
     """seed of the headings, the train/test selection and the splits"""
 
+    @property
+    def rotation(self) -> Rotation:
+        """The simulated rotation every method is trained and evaluated on."""
+        return Rotation(step=self.step)
+
     def validate(self) -> None:
-        for name in ("grid", "n_train", "n_test", "step", "node_dim", "n_outputs", "n_splits"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be a positive int, got {value!r}")
+        """Raise ValueError (or TypeError) naming the first bad setting."""
+        check_env_id("env_id", self.env_id)
+        for name in ("world_seed", "seed"):
+            check_int(name, getattr(self, name))
+        for name in ("grid", "n_train", "n_test", "step", "n_splits"):
+            check_positive_int(name, getattr(self, name))
+        check_choice("order", self.order, GridOrder)
+        self.sfa.validate()
         if self.n_train + self.n_test > self.grid**2:
             raise ValueError(
                 f"n_train + n_test = {self.n_train + self.n_test} positions do not fit on a "
@@ -104,7 +104,6 @@ class GridExperiment:
             raise ValueError(
                 f"need n_train >= 2 and n_test >= 4, got {self.n_train} and {self.n_test}"
             )
-        check_sfa_settings(self)
 
 
 def select_positions(config: GridExperiment, n_positions: int) -> tuple[NDArray, NDArray]:
@@ -119,8 +118,8 @@ def select_positions(config: GridExperiment, n_positions: int) -> tuple[NDArray,
     return train, test
 
 
-def render_grid(config: GridExperiment, out_dir: Path, progress: bool = True):
-    """Record (or resume) the run of all grid positions.
+def render_grid(config: GridExperiment, out_dir: Path, progress: bool = True) -> Any:
+    """Record (or resume) the run of all grid positions into ``out_dir / "grid.run"``.
 
     Returns the :class:`~sfa_gym.recording.runfile.Run`.
     """
@@ -145,7 +144,7 @@ def run_grid_experiment(
     progress: bool = True,
     figures: bool = True,
 ) -> dict[str, Any]:
-    """Run the grid protocol; write ``results.json`` and figures into ``out_dir``.
+    """Run the grid protocol; write ``results.json``, ``sfa_model.npz`` and figures.
 
     Args:
         config: the protocol's settings.
@@ -162,80 +161,38 @@ def run_grid_experiment(
     """
     config.validate()
     out = Path(out_dir)
+    check_out_folder(out)
     out.mkdir(parents=True, exist_ok=True)
     run = render_grid(config, out, progress)
     poses = run.poses
     train, test = select_positions(config, len(poses))
     panoramas = np.asarray(run.panoramas)
-    train_pan, test_pan = panoramas[train], panoramas[test]
-    train_xy, test_xy = poses[train, :2], poses[test, :2]
+    test_xy = poses[test, :2]
+    rotation = config.rotation
 
-    sfa, entries = methods_with_sfa(config, methods, progress)
-    results: dict[str, Any] = {
-        **results_header("grid", config, panoramas.shape[2]),
-        "paper": PAPER_SIM_RESULTS,
-        "methods": {},
-    }
-    sfa_outputs: dict[str, NDArray] = {}
-    for method, regressors in entries:
-        fitted = fit_method(method, train_pan, config.step)
-        f_train = rotation_features(
-            fitted, train_pan, config.step, f"{method.name} train", progress
+    def score(regressor: str, f_test: NDArray, estimates: NDArray) -> dict[str, Any]:
+        splits = random_split_mae(
+            f_test, test_xy, regressor, n_splits=config.n_splits, seed=config.seed
         )
-        f_test = rotation_features(fitted, test_pan, config.step, f"{method.name} test", progress)
-        entry = invariance_entry(f_train)
-        for name in dict.fromkeys(regressors):
-            splits = random_split_mae(
-                f_test, test_xy, name, n_splits=config.n_splits, seed=config.seed
-            )
-            estimates = fit_predict(make_regressor(name), f_train, train_xy, f_test)
-            entry[name] = {
-                "paper_splits": mae_dict(splits),
-                "train_test": mae_dict(mae(estimates, test_xy)),
-            }
-            if method is sfa and name == FIGURE_REGRESSOR:
-                sfa_outputs["estimates"] = estimates
-        results["methods"][method.name] = entry
-        if method is sfa:
-            sfa_outputs["model"] = fitted.model_
-    fitted_sfa = sfa_outputs["model"]
-    fitted_sfa.save(out / "sfa_model.npz")
-    (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
-    if figures:
-        _grid_figures(out, fitted_sfa, panoramas, poses, test_xy, sfa_outputs["estimates"], config)
-    return results
+        return {"paper_splits": mae_dict(splits)}
 
-
-def _grid_figures(
-    out: Path,
-    model: HierarchicalSFA,
-    panoramas: NDArray[np.uint8],
-    poses: NDArray[np.float64],
-    test_xy: NDArray[np.float64],
-    estimates: NDArray[np.float64],
-    config: GridExperiment,
-) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from sfa_gym.localization import plots
-
-    # Firing maps over every grid position, at the views nearest 0, 90, 180 and 270 degrees.
-    width = panoramas.shape[2]
-    n_rot = n_rotations(width, config.step)
-    ks = sorted({round(q * n_rot / 4) % n_rot for q in range(4)})
-    phis = np.array([2 * np.pi * k * config.step / width for k in ks])
-    outputs = np.stack(
-        [model.transform(np.roll(panoramas, -k * config.step, axis=2)) for k in ks], axis=1
+    found = evaluate_methods(
+        methods_with_sfa(config.sfa, rotation, methods, progress),
+        train=(panoramas[train], poses[train, :2]),
+        test=(panoramas[test], test_xy),
+        rotation=rotation,
+        score=score,
+        progress=progress,
     )
-    fig, _ = plots.firing_maps(outputs, poses[:, :2], phis=phis, n_outputs=4)
-    fig.savefig(out / "firing_maps.png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    fig, _ = plots.estimate_vs_truth(estimates, test_xy)
-    fig.savefig(out / "estimates.png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    fig, _ = plots.error_map(estimates, test_xy)
-    fig.savefig(out / "error_map.png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    results: dict[str, Any] = {
+        **results_header("grid", config, panoramas.shape[2], config.step),
+        "paper": PAPER_SIM_RESULTS,
+        "methods": found.methods,
+    }
+    save_model(found.model, out / "sfa_model.npz")
+    results = write_results(out / "results.json", results)
+    if figures:
+        from sfa_gym.experiments.figures import grid_figures
+
+        grid_figures(out, found.model, rotation, panoramas, poses, test_xy, found.estimates)
+    return results

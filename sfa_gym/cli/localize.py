@@ -1,0 +1,90 @@
+"""``sfa-gym localize`` and ``sfa-gym localize-run``: the localization protocols, hierarchical
+SFA beside the feature methods of a folder of plug-in files; results as JSON, a table and
+figures.
+
+Every field of the protocols' settings (:class:`~sfa_gym.experiments.GridExperiment`,
+:class:`~sfa_gym.experiments.TrajectoryExperiment`, the nested
+:class:`~sfa_gym.experiments.SFASettings`) is an option of the same name, without prefix
+(``--n-train``, ``--node-dim``); their docstrings are the help text and their ``validate()``
+checks the values.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import tyro
+
+from sfa_gym.experiments import GridExperiment, TrajectoryExperiment
+
+__all__ = ["Localize", "LocalizeRun"]
+
+
+@dataclass(frozen=True)
+class _Protocol:
+    out: Path
+    """output folder (created); the rendered runs are kept there and reused"""
+    baselines: Path | None = None
+    """folder of feature-method plug-in files (default: the checkout's baselines/, or those
+    shipped with sfa-gym)"""
+    no_baselines: bool = False
+    """hierarchical SFA only"""
+    quiet: bool = False
+    """no progress bars"""
+
+    def _methods(self) -> list[tuple[Any, tuple[str, ...]]]:
+        from sfa_gym.cli.plugins import load_plugins
+
+        return [] if self.no_baselines else load_plugins(self.baselines)
+
+    def _report(self, results: dict[str, Any]) -> int:
+        from sfa_gym.experiments import format_table
+
+        table = format_table(results)
+        Path(self.out, "results.txt").write_text(table + "\n")
+        print(table)
+        print(f"results in {Path(self.out) / 'results.json'}; figures in {self.out}")
+        return 0
+
+
+@dataclass(frozen=True)
+class Localize(_Protocol):
+    """The paper's simulator localization experiment (grid protocol)."""
+
+    settings: tyro.conf.OmitArgPrefixes[GridExperiment] = GridExperiment()
+    """settings of the grid protocol"""
+
+    def run(self) -> int:
+        from sfa_gym.experiments import run_grid_experiment
+
+        self.settings.validate()
+        results = run_grid_experiment(
+            self.settings, self.out, self._methods(), progress=not self.quiet
+        )
+        return self._report(results)
+
+
+@dataclass(frozen=True)
+class LocalizeRun(_Protocol):
+    """The paper's outdoor protocol: fit on a training run, test on a separate run through a
+    region never visited in training."""
+
+    settings: tyro.conf.OmitArgPrefixes[TrajectoryExperiment] = TrajectoryExperiment()
+    """settings of the trajectory protocol"""
+    no_exclude: bool = False
+    """the training run visits everything (same as --exclude None)"""
+
+    def run(self) -> int:
+        from sfa_gym.experiments import run_trajectory_experiment
+
+        settings = self.settings
+        if self.no_exclude:
+            settings = dataclasses.replace(settings, exclude=None)
+        settings.validate()
+        results = run_trajectory_experiment(
+            settings, self.out, self._methods(), progress=not self.quiet
+        )
+        return self._report(results)
