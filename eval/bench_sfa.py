@@ -129,7 +129,7 @@ def rendered_panoramas(
 
     env = gym.make(env_id)
     try:
-        xmin, xmax, ymin, ymax = env.unwrapped.arena_bounds
+        xmin, xmax, ymin, ymax = env.get_wrapper_attr("arena_bounds")
         cx, cy = (xmin + xmax) / 2, (ymin + ymax) / 2
         hx, hy = 0.45 * (xmax - xmin), 0.45 * (ymax - ymin)
         out = None

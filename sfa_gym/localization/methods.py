@@ -39,6 +39,8 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym._types import check_views
+
 __all__ = [
     "Argument",
     "FeatureMethod",
@@ -67,26 +69,6 @@ class FeatureMethod(Protocol):
 class PluginError(TypeError):
     """A plug-in file that does not follow the feature-method protocol (the message names the
     file and what is wrong)."""
-
-
-def check_views(views: Any, name: str = "views") -> NDArray[np.uint8]:
-    """Validate a stack of views: ``(N, H, W, 3)`` uint8 with ``N >= 1``; returns it as an array.
-
-    A single ``(H, W, 3)`` view is refused (say ``view[None]``) rather than guessed at.
-    """
-    array = np.asarray(views)
-    if array.dtype != np.uint8:
-        raise TypeError(f"{name} must be uint8 RGB images, got dtype {array.dtype}")
-    if array.ndim == 3 and array.shape[-1] == 3:
-        raise ValueError(
-            f"{name} must be a stack (N, H, W, 3), got one view of shape {array.shape}; "
-            "pass view[None]"
-        )
-    if array.ndim != 4 or array.shape[-1] != 3 or 0 in array.shape:
-        raise ValueError(
-            f"{name} must have shape (N, H, W, 3) with N, H, W >= 1, got {array.shape}"
-        )
-    return array
 
 
 def iter_chunks(n: int, chunk: int) -> Iterator[slice]:

@@ -261,17 +261,3 @@ def layer_patches(
         grid[1] if n_cols is None else n_cols,
         col_dilation,
     )
-
-
-def check_views(views: Any, name: str = "views") -> NDArray[np.uint8]:
-    """``views`` after checking that they are uint8 RGB images ``(N, H, W, 3)``."""
-    if not isinstance(views, np.ndarray):
-        raise TypeError(f"{name} must be a numpy array (N, H, W, 3) uint8, got {type(views)}")
-    if views.dtype != np.uint8:
-        raise TypeError(
-            f"{name} must be uint8 RGB images (N, H, W, 3), got dtype {views.dtype}; "
-            "convert with np.clip(x, 0, 255).astype(np.uint8) if they are float images in 0..255"
-        )
-    if views.ndim != 4 or views.shape[3] != 3:
-        raise ValueError(f"{name} must have shape (N, H, W, 3), got {views.shape}")
-    return views

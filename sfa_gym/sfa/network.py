@@ -52,8 +52,9 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils import Tags
 from sklearn.utils.validation import check_is_fitted
 
+from sfa_gym._types import check_views
 from sfa_gym.rotation import check_window, n_rotations, rotation_columns
-from sfa_gym.sfa._layers import LayerParams, check_views
+from sfa_gym.sfa._layers import LayerParams
 from sfa_gym.sfa._parallel import n_workers, ordered_map, single_threaded_blas
 from sfa_gym.sfa._sources import (
     DenseRotationSource,
@@ -230,7 +231,7 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         """
         del y
         layers = self._validated_layers()
-        views = check_views(views)
+        views = check_views(views, min_views=0)
         n, h, w, _ = views.shape
         if n < 2:
             raise ValueError(f"need at least 2 training views, got {n}")
@@ -267,7 +268,7 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
                 every view chunk by chunk).
         """
         layers = self._validated_layers()
-        panoramas = check_views(panoramas, "panoramas")
+        panoramas = check_views(panoramas, "panoramas", min_views=0)
         n_loc, h, w, _ = panoramas.shape
         n_rot = n_rotations(w, step)
         window = check_window(w, window)
@@ -405,7 +406,7 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
     def transform(self, views: NDArray[np.uint8]) -> NDArray[np.float64]:
         """Slow features of ``views`` ``(N, H, W, 3)`` uint8 -> ``(N, n_outputs)`` float64."""
         params = self._check_fitted()
-        views = check_views(views)
+        views = check_views(views, min_views=0)
         if tuple(views.shape[1:]) != self.input_shape_:
             raise ValueError(
                 f"views have shape {tuple(views.shape[1:])} per frame, but the model was "
@@ -449,7 +450,7 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
             ``(L, K, n_outputs)`` float64.
         """
         params = self._check_fitted()
-        panoramas = check_views(panoramas, "panoramas")
+        panoramas = check_views(panoramas, "panoramas", min_views=0)
         n_loc, h, w, _ = panoramas.shape
         window = self.input_shape_[1]
         if h != self.input_shape_[0] or w < window:

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 from sklearn.exceptions import NotFittedError
 
+from sfa_gym._types import check_views
 from sfa_gym.rotation import check_window, n_rotations, rotation_columns
 from sfa_gym.sfa._weights import check_weight_sharing
 from sfa_gym.sfa.reference.mdp_compat import MDP_INSTALL_HINT, import_mdp
@@ -418,7 +419,7 @@ class MDPHierarchicalSFA:
         """Train on ``views`` ``(N, H, W, 3)`` uint8 in time order (see ``HierarchicalSFA.fit``;
         ``y`` is ignored)."""
         del y
-        views = _check_uint8_views(views)
+        views = check_views(views, min_views=0)
         self._fit(views.shape[1:], views.shape[0], lambda i0, i1: views[i0:i1], sequence_ids)
         return self
 
@@ -427,7 +428,7 @@ class MDPHierarchicalSFA:
     ) -> MDPHierarchicalSFA:
         """Train on all rotated views of each panorama, location by location (paper order),
         materialising the views chunk by chunk (MDP has no rotation shortcut)."""
-        panoramas = _check_uint8_views(panoramas, "panoramas")
+        panoramas = check_views(panoramas, "panoramas", min_views=0)
         n_loc, h, w, _ = panoramas.shape
         n_rot = n_rotations(w, step)
         window = check_window(w, window)
@@ -446,7 +447,7 @@ class MDPHierarchicalSFA:
         flow = getattr(self, "flow_", None)
         if flow is None:
             raise NotFittedError("this MDPHierarchicalSFA is not fitted yet: call fit first")
-        views = _check_uint8_views(views)
+        views = check_views(views, min_views=0)
         if tuple(views.shape[1:]) != self.input_shape_:
             raise ValueError(
                 f"views have shape {tuple(views.shape[1:])} per frame, but the model was "
@@ -467,11 +468,3 @@ class MDPHierarchicalSFA:
         y = self.flow_[: layer_ends[n_layers - 1] + 1].execute(x)
         rows, cols = self.grids_[n_layers - 1]
         return y.reshape(views.shape[0], rows, cols, -1)
-
-
-def _check_uint8_views(views: Any, name: str = "views") -> NDArray[np.uint8]:
-    if not isinstance(views, np.ndarray) or views.dtype != np.uint8:
-        raise TypeError(f"{name} must be a uint8 numpy array (N, H, W, 3), got {type(views)}")
-    if views.ndim != 4 or views.shape[3] != 3:
-        raise ValueError(f"{name} must have shape (N, H, W, 3), got {views.shape}")
-    return views
