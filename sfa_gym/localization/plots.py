@@ -17,6 +17,8 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
+from sfa_gym.rotation import rotation_angles
+
 __all__ = ["error_map", "estimate_vs_truth", "firing_maps", "trajectory"]
 
 
@@ -124,7 +126,8 @@ def firing_maps(
     if len(orientations) == 0:
         raise ValueError("orientations must name at least one angle (degrees)")
     k_views = f.shape[1]
-    phi = 2 * np.pi * np.arange(k_views) / k_views if phis is None else np.asarray(phis, float)
+    # without phis, the K views are taken to be every rotation of one turn, in order
+    phi = rotation_angles(k_views, step=1) if phis is None else np.asarray(phis, float)
     if phi.shape != (k_views,):
         raise ValueError(f"phis must have shape ({k_views},) like outputs' axis 1, got {phi.shape}")
     wanted = np.deg2rad(np.asarray(orientations, dtype=np.float64))
