@@ -10,14 +10,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym.experiments.settings import (
-    EnvId,
-    check_choice,
-    check_env_id,
-    check_finite,
-    check_int,
-    check_positive_int,
-)
+from sfa_gym._checks import check_finite, check_int, check_positive_int
+from sfa_gym.experiments.settings import EnvId, check_choice, check_env_id
 
 __all__ = ["Record", "panorama_strip"]
 

@@ -28,6 +28,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym._checks import check_int, check_positive_int
 from sfa_gym.experiments.common import evaluate_methods, methods_with_sfa
 from sfa_gym.experiments.report import (
     check_out_folder,
@@ -35,14 +36,7 @@ from sfa_gym.experiments.report import (
     results_header,
     write_results,
 )
-from sfa_gym.experiments.settings import (
-    EnvId,
-    SFASettings,
-    check_choice,
-    check_env_id,
-    check_int,
-    check_positive_int,
-)
+from sfa_gym.experiments.settings import EnvId, SFASettings, check_choice, check_env_id
 from sfa_gym.localization import random_split_mae
 from sfa_gym.localization.methods import FeatureMethod
 from sfa_gym.rotation import Rotation

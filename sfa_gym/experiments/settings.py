@@ -8,14 +8,13 @@ its docstring as help. ``validate()`` is the one place where their values are ch
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal, get_args
 
-import numpy as np
 import tyro
 
+from sfa_gym._checks import check_positive_int
 from sfa_gym.sfa import HierarchicalSFA, LayerSpec, presets
 
 __all__ = [
@@ -26,10 +25,6 @@ __all__ = [
     "WeightSharing",
     "check_choice",
     "check_env_id",
-    "check_finite",
-    "check_int",
-    "check_positive_int",
-    "is_number",
 ]
 
 NetworkName = Literal["paper_sim", "paper_outdoor", "tiny"]
@@ -47,32 +42,6 @@ NETWORKS: dict[str, Callable[[int, int, int], list[LayerSpec]]] = {
     "tiny": lambda h, w, d: presets.tiny(height=h, width=w, dim=d, out_dim=d),
 }
 """The layers of each :data:`NetworkName` for panoramas ``h x w`` and node dimension ``d``."""
-
-
-def is_number(value: Any) -> bool:
-    """Whether ``value`` is a real number (bools are not)."""
-    return isinstance(value, int | float | np.number) and not isinstance(value, bool)
-
-
-def check_int(name: str, value: Any) -> int:
-    """``value`` as an int; TypeError naming ``name`` if it is not one (bools are not)."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{name} must be an int, got {value!r}")
-    return int(value)
-
-
-def check_positive_int(name: str, value: Any) -> int:
-    """``value`` as an int after checking that it is one and ``>= 1``."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-        raise ValueError(f"{name} must be a positive int, got {value!r}")
-    return int(value)
-
-
-def check_finite(name: str, value: Any) -> float:
-    """``value`` as a float after checking that it is a finite number."""
-    if not is_number(value) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    return float(value)
 
 
 def check_choice(name: str, value: Any, choices: Any) -> None:

@@ -35,6 +35,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym._checks import check_int, check_positive_int, is_number
 from sfa_gym.experiments.common import evaluate_methods, methods_with_sfa
 from sfa_gym.experiments.report import (
     check_out_folder,
@@ -42,15 +43,7 @@ from sfa_gym.experiments.report import (
     results_header,
     write_results,
 )
-from sfa_gym.experiments.settings import (
-    EnvId,
-    SFASettings,
-    check_choice,
-    check_env_id,
-    check_int,
-    check_positive_int,
-    is_number,
-)
+from sfa_gym.experiments.settings import EnvId, SFASettings, check_choice, check_env_id
 from sfa_gym.geometry import check_rectangle, in_rectangle
 from sfa_gym.localization import mae
 from sfa_gym.localization.methods import FeatureMethod

@@ -36,6 +36,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym._checks import check_finite, check_positive, is_number
 from sfa_gym._types import Pose
 from sfa_gym.geometry import Rectangle, check_rectangle, grow_rectangle
 from sfa_gym.recording.ordering import grid_order
@@ -60,24 +61,6 @@ Bounds = Rectangle
 def _wrap(angle: float) -> float:
     """Angle wrapped to ``[-pi, pi)``."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def _is_number(value: Any) -> bool:
-    return isinstance(value, int | float | np.number) and not isinstance(value, bool)
-
-
-def _check_positive(name: str, value: float) -> float:
-    if not (_is_number(value) and value > 0 and math.isfinite(value)):
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
-    return float(value)
-
-
-def _check_finite(name: str, value: float, *, low: float = -math.inf) -> float:
-    """``value`` as a float after checking it is a finite number ``>= low``."""
-    if not (_is_number(value) and math.isfinite(value) and value >= low):
-        bound = "a finite number" if low == -math.inf else f"a finite number >= {low:g}"
-        raise ValueError(f"{name} must be {bound}, got {value!r}")
-    return float(value)
 
 
 def env_attribute(env: Any, name: str) -> Any:
@@ -124,7 +107,7 @@ class Driver:
     ) -> None:
         """Plan a new drive in ``bounds`` (metres) with control period ``dt`` (seconds)."""
         self.bounds_ = check_rectangle("bounds", bounds)
-        self.dt_ = _check_positive("dt", dt)
+        self.dt_ = check_positive("dt", dt)
         self.rng_ = np.random.default_rng(seed)
         self._start()
 
@@ -232,7 +215,7 @@ class WaypointDriver(Driver):
 
     def _start(self) -> None:
         for name in ("speed", "turn_rate", "tolerance", "turn_in_place"):
-            _check_positive(name, getattr(self, name))
+            check_positive(name, getattr(self, name))
         self.plan_ = self._plan()
         if not self.plan_:
             raise ValueError(f"{type(self).__name__} has no waypoints to follow in {self.bounds_}")
@@ -432,13 +415,13 @@ class LawnMowerDriver(WaypointDriver):
         self.clearance = clearance
 
     def _plan(self) -> list[Goto | Spin]:
-        spacing = _check_positive("spacing", self.spacing)
+        spacing = check_positive("spacing", self.spacing)
         if self.pattern not in ("rows", "columns", "grid"):
             raise ValueError(f"pattern must be 'rows', 'columns' or 'grid', got {self.pattern!r}")
-        _check_finite("margin", self.margin, low=0.0)
-        _check_finite("clearance", self.clearance, low=0.0)
-        _check_finite("offset", self.offset)
-        _check_finite("spin", self.spin)
+        check_finite("margin", self.margin, low=0.0)
+        check_finite("clearance", self.clearance, low=0.0)
+        check_finite("offset", self.offset)
+        check_finite("spin", self.spin)
         xmin, xmax, ymin, ymax = self.bounds_
         area = (xmin + self.margin, xmax - self.margin, ymin + self.margin, ymax - self.margin)
         if area[0] >= area[1] or area[2] >= area[3]:
@@ -544,7 +527,7 @@ class LoopDriver(WaypointDriver):
         plan: list[Goto | Spin] = []
         for _ in range(self.laps):
             for inset in self.insets:
-                inset = _check_finite("inset", inset, low=0.0)
+                inset = check_finite("inset", inset, low=0.0)
                 x0, x1, y0, y1 = xmin + inset, xmax - inset, ymin + inset, ymax - inset
                 if x0 >= x1 or y0 >= y1:
                     raise ValueError(
@@ -607,15 +590,15 @@ class RandomWalkDriver(Driver):
 
     def _start(self) -> None:
         for name in ("speed", "turn_rate", "turn_duration", "straight_duration"):
-            _check_positive(name, getattr(self, name))
-        if not (_is_number(self.turn_probability) and 0.0 <= self.turn_probability <= 1.0):
+            check_positive(name, getattr(self, name))
+        if not (is_number(self.turn_probability) and 0.0 <= self.turn_probability <= 1.0):
             raise ValueError(f"turn_probability must lie in [0, 1], got {self.turn_probability!r}")
         for name in ("turn_duration", "straight_duration"):
             if getattr(self, name) < self.dt_:
                 raise ValueError(f"{name} must be >= dt = {self.dt_} s, got {getattr(self, name)}")
         xmin, xmax, ymin, ymax = self.bounds_
         if not (
-            _is_number(self.margin) and 0.0 <= self.margin < 0.5 * min(xmax - xmin, ymax - ymin)
+            is_number(self.margin) and 0.0 <= self.margin < 0.5 * min(xmax - xmin, ymax - ymin)
         ):
             raise ValueError(f"margin {self.margin!r} leaves no room inside bounds {self.bounds_}")
         self.mode_: Literal["turn", "straight", "avoid"] = "straight"

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 import sfa_gym
+from sfa_gym._checks import check_positive_int
 from sfa_gym._files import strict_json
 from sfa_gym.recording.drivers import Driver, GridPositions, env_attribute
 from sfa_gym.recording.runfile import (
@@ -210,14 +211,6 @@ def _remove_temporaries(directory: Path) -> None:
             file.unlink()
 
 
-def _positive_int(name: str, value: Any, *, none: bool = False) -> None:
-    if value is None and none:
-        return
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-        expected = "a positive int or None" if none else "a positive int"
-        raise ValueError(f"{name} must be {expected}, got {value!r}")
-
-
 def _check_out_dir(directory: Path) -> None:
     """Refuse an output path that cannot become a run directory, before anything is written."""
     if directory.suffix != SUFFIX:
@@ -345,8 +338,8 @@ def record(
     """
     directory = Path(out_dir)
     _check_out_dir(directory)
-    _positive_int("chunk_size", chunk_size)
-    _positive_int("n_steps", n_steps, none=True)
+    check_positive_int("chunk_size", chunk_size)
+    check_positive_int("n_steps", n_steps, none=True)
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise ValueError(f"seed must be an int >= 0, got {seed!r}")
     if not isinstance(driver, Driver | GridPositions):

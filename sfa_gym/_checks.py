@@ -1,0 +1,51 @@
+"""Checks of scalar settings shared across the package; each error names the setting.
+
+Bools are never numbers here (``True`` is an ``int`` to Python, never a sensible setting).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+__all__ = ["is_number", "check_int", "check_positive_int", "check_finite", "check_positive"]
+
+
+def is_number(value: Any) -> bool:
+    """Whether ``value`` is a real number (bools are not)."""
+    return isinstance(value, int | float | np.number) and not isinstance(value, bool)
+
+
+def check_int(name: str, value: Any) -> int:
+    """``value`` as an int; TypeError naming ``name`` if it is not one (bools are not)."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise TypeError(f"{name} must be an int, got {value!r}")
+    return int(value)
+
+
+def check_positive_int(name: str, value: Any, *, none: bool = False) -> int | None:
+    """``value`` as an int after checking that it is one and ``>= 1`` (``None`` passes when
+    ``none``); ValueError naming ``name`` otherwise."""
+    if value is None and none:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+        expected = "a positive int or None" if none else "a positive int"
+        raise ValueError(f"{name} must be {expected}, got {value!r}")
+    return int(value)
+
+
+def check_finite(name: str, value: Any, *, low: float = -math.inf) -> float:
+    """``value`` as a float after checking that it is a finite number ``>= low``."""
+    if not (is_number(value) and math.isfinite(value) and value >= low):
+        bound = "a finite number" if low == -math.inf else f"a finite number >= {low:g}"
+        raise ValueError(f"{name} must be {bound}, got {value!r}")
+    return float(value)
+
+
+def check_positive(name: str, value: Any) -> float:
+    """``value`` as a float after checking that it is a finite number ``> 0``."""
+    if not (is_number(value) and value > 0 and math.isfinite(value)):
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+    return float(value)
