@@ -149,7 +149,8 @@ def trajectory_figures(
             a.set_xlabel("time (s)")
         else:
             a.legend(loc="upper right", fontsize=7)
-    fig.savefig(out / "estimates.png", dpi=DPI)
+    # the legend sits below the plane plot: "tight" keeps it and the title in the image
+    fig.savefig(out / "estimates.png", dpi=DPI, bbox_inches="tight")
 
     fig, ax = plots.error_map(estimates, test_xy)
     if exclude is not None:
