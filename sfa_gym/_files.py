@@ -1,10 +1,11 @@
-"""Writing files so that nothing is lost: atomically, durably, and with strict JSON.
+"""Files of the run and model formats: written so that nothing is lost (atomically, durably,
+with strict JSON), and the ``.npy`` headers of their ``.npz`` members read without the data.
 
 A file is written to a temporary file in the same directory, flushed and fsynced, then renamed
 over the target (``os.replace`` is atomic on POSIX), and the directory is fsynced so that the
 rename survives a power cut. A reader therefore sees the old file or the new one, never half of
 one. Runs (:mod:`sfa_gym.recording.runfile`) and models (:mod:`sfa_gym.sfa.io`) both write this
-way; this module imports nothing but the standard library.
+way, and both check a member's ``.npy`` header before they read its data.
 """
 
 from __future__ import annotations
@@ -18,7 +19,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["write_atomic", "write_json_atomic", "strict_json"]
+import numpy as np
+
+__all__ = ["read_npy_header", "write_atomic", "write_json_atomic", "strict_json"]
 
 
 def _fsync_dir(directory: Path) -> None:
@@ -90,3 +93,21 @@ def write_json_atomic(path: str | os.PathLike[str], value: Any, indent: int | No
     """Write ``value`` as strict JSON (see :func:`strict_json`) to ``path``, atomically."""
     text = strict_json(value, indent=indent).encode()
     write_atomic(path, lambda file: file.write(text))
+
+
+def read_npy_header(stream: IO[bytes]) -> tuple[tuple[int, ...], bool, np.dtype[Any]]:
+    """``(shape, fortran_order, dtype)`` from the ``.npy`` header at the start of ``stream``,
+    which is left at the first data byte; nothing of the data is read.
+
+    Raises:
+        ValueError: not a ``.npy`` header, or a format version other than 1.0 and 2.0.
+    """
+    version = np.lib.format.read_magic(stream)
+    read = {
+        (1, 0): np.lib.format.read_array_header_1_0,
+        (2, 0): np.lib.format.read_array_header_2_0,
+    }.get(version)
+    if read is None:
+        raise ValueError(f"unsupported .npy version {version}")
+    shape, fortran, dtype = read(stream)
+    return tuple(shape), bool(fortran), dtype

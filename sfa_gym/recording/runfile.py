@@ -68,7 +68,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import sfa_gym
-from sfa_gym._files import write_atomic, write_json_atomic
+from sfa_gym._files import read_npy_header, write_atomic, write_json_atomic
 
 __all__ = [
     "FORMAT",
@@ -141,14 +141,7 @@ def _verify_chunk(path: Path, expected: str | None) -> None:
 def _member_header(zf: zipfile.ZipFile, member: str) -> tuple[tuple[int, ...], np.dtype, int]:
     """Shape, dtype and data offset (inside the member) of one ``.npy`` member."""
     with zf.open(member) as stream:
-        version = np.lib.format.read_magic(stream)
-        read = {
-            (1, 0): np.lib.format.read_array_header_1_0,
-            (2, 0): np.lib.format.read_array_header_2_0,
-        }.get(version)
-        if read is None:
-            raise ValueError(f"unsupported .npy version {version}")
-        shape, fortran, dtype = read(stream)
+        shape, fortran, dtype = read_npy_header(stream)
         if fortran and len(shape) > 1:
             raise ValueError("Fortran-ordered array")
         return shape, dtype, stream.tell()

@@ -49,10 +49,9 @@ from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
-from numpy.lib import format as npy
 from sklearn.utils.validation import check_is_fitted
 
-from sfa_gym._files import strict_json, write_atomic
+from sfa_gym._files import read_npy_header, strict_json, write_atomic
 from sfa_gym.sfa._layers import Affine, LayerParams
 from sfa_gym.sfa._weights import affine_shapes, check_weight_sharing
 from sfa_gym.sfa.network import HierarchicalSFA
@@ -254,11 +253,7 @@ def _npy_header(
     ``dtype`` (None: any but objects) and ``shape`` and against the member's size; returns
     whether the data is in Fortran order and its dtype (``file`` is left at the data)."""
     try:
-        version = npy.read_magic(file)
-        if version == (1, 0):
-            got_shape, fortran, got_dtype = npy.read_array_header_1_0(file)
-        else:
-            got_shape, fortran, got_dtype = npy.read_array_header_2_0(file)
+        got_shape, fortran, got_dtype = read_npy_header(file)
     except ValueError as err:
         raise _BadModel(f"member {key!r} is not a .npy array ({err})") from None
     if got_dtype.hasobject or (dtype is not None and got_dtype != dtype):
