@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.lib.stride_tricks import as_strided
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
@@ -151,13 +152,31 @@ def rotated_views(
             f"panoramas must have shape (H, W, C) or (N, H, W, C), got shape {panoramas.shape}"
         )
     width = panoramas.shape[-2]
-    columns = rotation_columns(width, step, window, indices)  # (K, window)
-    # take along the width axis: (..., H, K, window, C) -> (..., K, H, window, C)
-    views = np.take(panoramas, columns, axis=-2)
-    views = np.moveaxis(views, -4, -3) if panoramas.ndim == 3 else np.moveaxis(views, 2, 1)
-    out = np.empty(views.shape, dtype=views.dtype)  # fresh and C-contiguous whatever H is
-    out[...] = views
-    return out, rotation_angles(width, step, indices)
+    k = _indices(width, step, indices)
+    window = check_window(width, window)
+    batch = panoramas if panoramas.ndim == 4 else panoramas[None]
+    # Append the first window-1 columns, so that view k is the plain slice of columns
+    # k*step .. k*step+window-1 of the extended panoramas (the columns rotation_columns gives);
+    # all views are then one strided view, copied once into a fresh C-contiguous array.
+    extended = np.concatenate([batch, batch[:, :, : window - 1]], axis=2)
+    n, height, _, channels = batch.shape
+    s_n, s_row, s_col, s_chan = extended.strides
+    strided = as_strided(
+        extended,
+        shape=(n, width // step, height, window, channels),
+        strides=(s_n, step * s_col, s_row, s_col, s_chan),
+        writeable=False,
+    )
+    if panoramas.ndim == 3:
+        strided = strided[0]
+    phis = rotation_angles(width, step, indices)
+    if indices is None:
+        return strided.copy(), phis
+    shape = (*strided.shape[:-4], len(k), *strided.shape[-3:])
+    out = np.empty(shape, dtype=panoramas.dtype)
+    for i, view in enumerate(k):  # a strided slice each: one pass over the output
+        out[..., i, :, :, :] = strided[..., view, :, :, :]
+    return out, phis
 
 
 def spread_indices(n_views: int, count: int | None) -> NDArray[np.intp]:
