@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from sfa_gym.rotation import check_window, n_rotations, rotated_views, rotation_angles
 
-__all__ = ["FeatureModel", "SlowFeatureObservation"]
+__all__ = ["FeatureModel", "SimulatedRotation", "SlowFeatureObservation"]
 
 
 class FeatureModel(Protocol):
