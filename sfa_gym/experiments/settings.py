@@ -15,7 +15,7 @@ from typing import Annotated, Any, Literal, get_args
 import tyro
 
 from sfa_gym._checks import check_positive_int
-from sfa_gym.sfa import HierarchicalSFA, LayerSpec, presets
+from sfa_gym.sfa import HierarchicalSFA, LayerSpec, WeightSharing, presets
 
 __all__ = [
     "EnvId",
@@ -29,9 +29,6 @@ __all__ = [
 
 NetworkName = Literal["paper_sim", "paper_outdoor", "tiny"]
 """Presets of :mod:`sfa_gym.sfa.presets` a protocol can train."""
-
-WeightSharing = Literal["layer", "rows", "none"]
-"""Nodes that share weights: one per layer (the paper), one per row of a layer's grid, none."""
 
 EnvId = Annotated[str, tyro.conf.arg(aliases=("--env",))]
 """A registered env id; on the command line ``--env-id`` or ``--env``."""

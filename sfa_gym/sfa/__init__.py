@@ -14,7 +14,7 @@ from sfa_gym.sfa import presets
 from sfa_gym.sfa.expansion import QuadraticExpansion, n_quadratic_features, quadratic_expand
 from sfa_gym.sfa.io import load_model, save_model
 from sfa_gym.sfa.linear import SFA, RankDeficiencyWarning
-from sfa_gym.sfa.network import WEIGHT_SHARING, HierarchicalSFA, shortcut_applies
+from sfa_gym.sfa.network import WEIGHT_SHARING, HierarchicalSFA, WeightSharing, shortcut_applies
 from sfa_gym.sfa.spec import LayerSpec, describe, layer_grids
 
 __all__ = [
@@ -23,6 +23,7 @@ __all__ = [
     "LayerSpec",
     "HierarchicalSFA",
     "WEIGHT_SHARING",
+    "WeightSharing",
     "presets",
     "RankDeficiencyWarning",
     "describe",

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -31,6 +31,7 @@ from sfa_gym.sfa.spec import LayerSpec
 
 __all__ = [
     "WEIGHT_SHARING",
+    "WeightSharing",
     "affine_shapes",
     "check_weight_sharing",
     "check_weights",
@@ -40,8 +41,12 @@ __all__ = [
     "solve_layer",
 ]
 
-WEIGHT_SHARING = ("layer", "rows", "none")
-"""One node per layer, one per grid row, or one per grid position."""
+WeightSharing = Literal["layer", "rows", "none"]
+"""Nodes that share weights: one per layer (the paper), one per grid row, or none (one node per
+grid position)."""
+
+WEIGHT_SHARING: tuple[str, ...] = get_args(WeightSharing)
+"""The values of :data:`WeightSharing`."""
 
 
 def check_weight_sharing(value: Any) -> str:

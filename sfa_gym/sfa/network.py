@@ -67,6 +67,7 @@ from sfa_gym.sfa._sources import (
 from sfa_gym.sfa._training import chunk_size, item_bytes, layer_clips, train_layers
 from sfa_gym.sfa._weights import (
     WEIGHT_SHARING,
+    WeightSharing,
     check_weight_sharing,
     check_weights,
     layer_specs,
@@ -74,7 +75,13 @@ from sfa_gym.sfa._weights import (
 from sfa_gym.sfa.linear import sequence_starts
 from sfa_gym.sfa.spec import LayerSpec, layer_grids
 
-__all__ = ["HierarchicalSFA", "WEIGHT_SHARING", "check_weight_sharing", "shortcut_applies"]
+__all__ = [
+    "HierarchicalSFA",
+    "WEIGHT_SHARING",
+    "WeightSharing",
+    "check_weight_sharing",
+    "shortcut_applies",
+]
 
 DEFAULT_RANK_TOL = {"float32": 1e-6, "float64": 1e-9}
 """Relative variance below which node input directions are dropped, per compute dtype
