@@ -3,6 +3,6 @@
 
 from __future__ import annotations
 
-from sfa_gym.sim.camera.projection import PanoramaSpec, camera_mjcf
+from sfa_gym.sim.camera.projection import PanoramaSpec, ViewDirections, camera_mjcf
 
-__all__ = ["PanoramaSpec", "camera_mjcf"]
+__all__ = ["PanoramaSpec", "ViewDirections", "camera_mjcf"]

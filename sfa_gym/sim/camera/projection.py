@@ -1,9 +1,10 @@
 """Omnidirectional panoramic camera: N pinhole views stitched into one cylindrical panorama.
 
 The rover's mast carries ``n_views`` MuJoCo cameras (built by :func:`camera_mjcf`) that look
-horizontally at evenly spaced azimuths. :class:`OmniCamera` renders them into the viewports of
-one offscreen buffer, reads the buffer once and resamples it with one precomputed ``cv2.remap``
-onto the panorama grid:
+horizontally at evenly spaced azimuths; they fix the eye, the mast's frame and the views' field
+of view. :class:`OmniCamera` renders ``n_views`` pinhole views into the viewports of one
+offscreen buffer, reads the buffer once and resamples it with one ``cv2.remap`` onto the
+panorama grid:
 
 * column ``c`` looks at azimuth ``heading + 2*pi*c/W`` (counter-clockwise, so a yaw change of
   ``+2*pi*k/W`` gives ``np.roll(old, -k, axis=1)``); the panorama is periodic in width;
@@ -14,6 +15,20 @@ Anti-aliasing is by supersampling: the views are rendered ``supersample`` times 
 panorama (at the centre of a view; denser towards its sides), the panorama is resampled at
 ``supersample`` times its resolution and box-filtered down (``cv2.INTER_AREA``). On a CPU
 rasteriser this is cheaper than MSAA.
+
+Which way the views look (``PanoramaSpec.views``). A rasteriser point-samples each view, so an
+edge is anti-aliased according to where it falls in the view's pixel grid, and a pinhole view's
+pixel footprint on the cylinder changes with the azimuth inside the view (vertically by
+``1/cos``). Views that turn with the rover ("rover") therefore render the same scene
+differently at every heading that is not a multiple of ``360/n_views`` degrees: edges near the
+horizon differed by 8-12 grey levels (row means) after shifting back, and the slow features of
+one position wobbled with the heading as much as they change over 0.1 m. With "compass" (the
+default) the views look along fixed compass directions, world +x, +y, ..., levelled with the
+mast, so their pixels do not depend on the heading; each panorama column is resampled from them
+at its own compass azimuth ``heading + 2*pi*c/W``. Turning by whole columns then shifts the
+panorama exactly; the fraction of a column (quantised to 1/32 of a supersampled pixel, the
+resolution of ``cv2.remap``'s fixed-point maps) moves the resampling positions, as a real
+sensor's pixels move over the image. ``eval/bench_equivariance.py`` measures both.
 
 What the views see: the model's geoms of groups 0-2 (MuJoCo's default), no sites, no shadows or
 reflections. A headlight is moved to the eye and made to shine in all directions, so that every
@@ -31,11 +46,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["PanoramaSpec", "camera_mjcf"]
+__all__ = ["PanoramaSpec", "ViewDirections", "camera_mjcf"]
+
+ViewDirections = Literal["compass", "rover"]
+"""Where the pinhole views look: fixed compass directions, or along the rover's heading."""
 
 # Elevation (degrees) that every view covers beyond the panorama's top and bottom edges, so that
 # bilinear samples of the outermost rows stay inside the rendered image.
@@ -71,6 +90,10 @@ class PanoramaSpec:
         n_views: pinhole cameras around the mast, in [3, 64]; each covers 360/n degrees.
         supersample: render and resample at this factor, then box-filter down, in [1, 8]
             (1 = no anti-aliasing).
+        views: "compass" (default): the views look along fixed compass directions and each
+            column is resampled at its own compass azimuth, so that turning by whole columns
+            shifts the panorama exactly; "rover": the views turn with the rover (the camera of
+            sfa-gym 0.1, kept to reproduce its figures; not rotation-equivariant).
     """
 
     width: int = 350
@@ -78,6 +101,7 @@ class PanoramaSpec:
     vfov_deg: float = 40.0
     n_views: int = 4
     supersample: int = 2
+    views: ViewDirections = "compass"
 
     def __post_init__(self) -> None:
         _check_int("width", self.width, 1, 1 << 16)
@@ -90,6 +114,11 @@ class PanoramaSpec:
         if not 0.0 < float(vfov) <= _MAX_VFOV_DEG:
             raise ValueError(
                 f"PanoramaSpec.vfov_deg must be in (0, {_MAX_VFOV_DEG:g}] degrees, got {vfov!r}"
+            )
+        if self.views not in get_args(ViewDirections):
+            raise ValueError(
+                f"PanoramaSpec.views must be one of {list(get_args(ViewDirections))}, "
+                f"got {self.views!r}"
             )
 
     @classmethod
@@ -198,10 +227,19 @@ def _layout(spec: PanoramaSpec, fovy_deg: float) -> _Layout:
     return _Layout(focal=focal, view_w=view_w, view_h=view_h, n_views=n, cols=cols)
 
 
+def heading_phases(spec: PanoramaSpec) -> int:
+    """Steps per panorama column in which a compass camera resolves the heading: 1/32 of a
+    supersampled pixel, the resolution of ``cv2.remap``'s fixed-point maps."""
+    return 32 * spec.supersample
+
+
 def _remap_tables(
-    spec: PanoramaSpec, layout: _Layout
+    spec: PanoramaSpec, layout: _Layout, phase: int = 0
 ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
     """Source coordinates in the read-back buffer for every supersampled panorama pixel.
+
+    Column 0 of the panorama looks ``phase / heading_phases(spec)`` of a column
+    counter-clockwise of view 0's axis (0: along it, as for views that turn with the rover).
 
     Returns ``(map_x, map_y)``, each ``(H*s, W*s)`` float32, in buffer pixels (pixel centres at
     integers). The buffer comes from ``glReadPixels``: its row 0 is the bottom of the image, so
@@ -210,10 +248,11 @@ def _remap_tables(
     s = spec.supersample
     rows, cols = spec.height * s, spec.width * s
     # Sub-pixel centres: after the s x s box filter, output column c is centred on azimuth
-    # 2*pi*c/W exactly, and the rows are symmetric about the horizon.
-    azimuth = 2.0 * np.pi / spec.width * ((np.arange(cols) + 0.5) / s - 0.5)
+    # 2*pi*c/W (plus the phase) exactly, and the rows are symmetric about the horizon.
+    offset = phase / heading_phases(spec)
+    azimuth = 2.0 * np.pi / spec.width * ((np.arange(cols) + 0.5) / s - 0.5 + offset)
     vfov = math.radians(spec.vfov_deg)
-    elevation = vfov / 2.0 - (np.arange(rows) + 0.5) * vfov / rows
+    tan_elevation = np.tan(vfov / 2.0 - (np.arange(rows) + 0.5) * vfov / rows)
     sector = 2.0 * np.pi / spec.n_views
     view = np.round(azimuth / sector).astype(np.int64) % spec.n_views
     theta = azimuth - view * sector  # from the view's axis, counter-clockwise
@@ -221,17 +260,20 @@ def _remap_tables(
     f = layout.focal
     # Counter-clockwise of the axis is to the left in the image.
     x_in_view = layout.view_w / 2.0 - 0.5 - f * np.tan(theta)
-    y_in_view = layout.view_h / 2.0 - 0.5 + f * np.tan(elevation)[:, None] / np.cos(theta)
+    scale = f / np.cos(theta)  # image rows per unit of tan(elevation)
+    y_top = layout.view_h / 2.0 - 0.5 + tan_elevation[0] * scale
+    y_bottom = layout.view_h / 2.0 - 0.5 + tan_elevation[-1] * scale
     inside = (
-        (x_in_view >= 0.0).all()
-        and (x_in_view <= layout.view_w - 1.0).all()
-        and (y_in_view >= 0.0).all()
-        and (y_in_view <= layout.view_h - 1.0).all()
+        x_in_view.min() >= 0.0
+        and x_in_view.max() <= layout.view_w - 1.0
+        and y_bottom.min() >= 0.0
+        and y_top.max() <= layout.view_h - 1.0
     )
     if not inside:
         raise RuntimeError(f"panorama samples fall outside the rendered views ({spec}, {layout})")
     x0 = (view % layout.cols) * layout.view_w
-    y0 = (view // layout.cols) * layout.view_h
-    map_x = np.broadcast_to(x0 + x_in_view, (rows, cols))
-    map_y = y0 + y_in_view
-    return map_x.astype(np.float32), map_y.astype(np.float32)
+    y0 = (view // layout.cols) * layout.view_h + layout.view_h / 2.0 - 0.5
+    map_y = (y0 + tan_elevation[:, None] * scale).astype(np.float32)
+    map_x = np.empty_like(map_y)
+    map_x[:] = (x0 + x_in_view).astype(np.float32)
+    return map_x, map_y

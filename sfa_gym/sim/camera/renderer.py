@@ -24,6 +24,7 @@ from sfa_gym.sim.camera.projection import (  # noqa: E402
     _remap_tables,
     _view_azimuths,
     _view_fovy_deg,
+    heading_phases,
 )
 
 __all__ = ["OmniCamera"]
@@ -180,8 +181,9 @@ class OmniCamera:
         # here, not at the first render: MuJoCo would fail there with a FatalError
         gl.check_framebuffer(lay.buffer_w, lay.buffer_h, str(spec))
         self._tan_half = ((lay.view_w / 2.0) / lay.focal, (lay.view_h / 2.0) / lay.focal)
-        self._map_x: NDArray[Any] | None = None
-        self._map_y: NDArray[Any] | None = None
+        self._body_id = int(model.cam_bodyid[self._cam_ids[0]])
+        # Remap tables of the last heading phase (a standing or grid-stepping rover reuses them).
+        self._maps: tuple[int, NDArray[Any], NDArray[Any]] | None = None
         # Skip, in each view, the geoms outside its frustum: same pixels, less geometry.
         self._cull = True
         self._cull_cache: tuple[int, list[Any], NDArray[np.intp], list[int]] | None = None
@@ -240,12 +242,10 @@ class OmniCamera:
         self._option = mujoco.MjvOption()
         self._option.sitegroup[:] = 0  # sites are markers, not things a camera sees
         self._perturb = mujoco.MjvPerturb()
-        self._cameras = []
-        for cam_id in self._cam_ids:
-            cam = mujoco.MjvCamera()
-            cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
-            cam.fixedcamid = cam_id
-            self._cameras.append(cam)
+        # the scene is built from camera 0 (eye and frustum); each view then turns it
+        self._scene_camera = mujoco.MjvCamera()
+        self._scene_camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        self._scene_camera.fixedcamid = self._cam_ids[0]
         self._rects = [
             mujoco.MjrRect(*lay.origin(i), lay.view_w, lay.view_h) for i in range(lay.n_views)
         ]
@@ -255,11 +255,13 @@ class OmniCamera:
         self._fine = np.empty((self.spec.height * s, self.spec.width * s, 3), dtype=np.uint8)
         self._cull_cache = None
 
-    def _ensure_maps(self) -> None:
-        if self._map_x is None:
-            map_x, map_y = _remap_tables(self.spec, self._layout)
+    def _remap_maps(self, phase: int) -> tuple[NDArray[Any], NDArray[Any]]:
+        """Fixed-point remap tables for a heading phase (see :func:`_remap_tables`)."""
+        if self._maps is None or self._maps[0] != phase:
+            map_x, map_y = _remap_tables(self.spec, self._layout, phase)
             # Fixed-point maps (1/32 pixel) make cv2.remap about twice as fast.
-            self._map_x, self._map_y = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2)
+            self._maps = (phase, *cv2.convertMaps(map_x, map_y, cv2.CV_16SC2))
+        return self._maps[1], self._maps[2]
 
     # -- rendering ------------------------------------------------------------------------------
 
@@ -285,14 +287,53 @@ class OmniCamera:
         _, geoms, ids, types = self._cull_cache
         return geoms, ids, types
 
-    def _visibility(self, data: mujoco.MjData, ids: NDArray[np.intp]) -> NDArray[np.bool_]:
-        """``(n_views, G)``: may view ``i`` see geom ``ids[g]``?
+    def _view_frames(
+        self, data: mujoco.MjData
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int]:
+        """Where the views look, and how the panorama is cut from them.
+
+        Returns ``(eye, frames, shift, phase)``: the eye ``(3,)``; ``frames (n_views, 3, 3)``
+        whose columns are each view's right, up and backward directions (a MuJoCo camera
+        frame); the panorama is ``np.roll(P, -shift, axis=1)`` of the panorama ``P`` resampled
+        with the tables of ``phase``.
+        """
+        eye = data.cam_xpos[self._cam_ids[0]].copy()
+        if self.spec.views == "rover":
+            return eye, data.cam_xmat[self._cam_ids].reshape(-1, 3, 3), 0, 0
+        body = data.xmat[self._body_id].reshape(3, 3)
+        heading_axis, up = body[:, 0], body[:, 2]
+        # Compass axes in the mast's horizontal plane: world +x (or +y, should the mast point
+        # along x) made perpendicular to the mast. Upright, they are exactly world x and y, so
+        # the views are the same at every heading.
+        north = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        east = north - (north @ up) * up
+        east /= np.linalg.norm(east)
+        west_north = np.cross(up, east)
+        heading = math.atan2(heading_axis @ west_north, heading_axis @ east)
+        phases = heading_phases(self.spec)
+        steps = round(heading / (2.0 * math.pi) * self.spec.width * phases)
+        shift, phase = divmod(steps, phases)
+        azimuths = _view_azimuths(self.spec)
+        forward = np.cos(azimuths)[:, None] * east + np.sin(azimuths)[:, None] * west_north
+        frames = np.empty((len(azimuths), 3, 3))
+        frames[:, :, 0] = np.cross(forward, up)
+        frames[:, :, 1] = up
+        frames[:, :, 2] = -forward
+        return eye, frames, shift % self.spec.width, phase
+
+    def _visibility(
+        self,
+        data: mujoco.MjData,
+        eye: NDArray[np.float64],
+        frames: NDArray[np.float64],
+        ids: NDArray[np.intp],
+    ) -> NDArray[np.bool_]:
+        """``(n_views, G)``: may view ``i`` (frame ``frames[i]``) see geom ``ids[g]``?
 
         False when the geom's bounding sphere lies wholly outside one of the four side planes of
         the view's frustum or behind the camera.
         """
-        rel = data.geom_xpos[ids] - data.cam_xpos[self._cam_ids[0]]  # (G, 3)
-        frames = data.cam_xmat[self._cam_ids].reshape(-1, 3, 3)  # columns: right, up, back
+        rel = data.geom_xpos[ids] - eye  # (G, 3)
         local = rel @ frames  # (V, G, 3)
         x, y, depth = local[..., 0], local[..., 1], -local[..., 2]
         th, tv = self._tan_half
@@ -304,9 +345,11 @@ class OmniCamera:
         )
         return ~outside
 
-    def _render_views(self, data: mujoco.MjData) -> None:
-        model, scn, con = self.model, self._scene, self._con
-        changes: list[tuple[list[int], list[int]]] = [([], [])] * len(self._cameras)
+    def _render_views(
+        self, data: mujoco.MjData, eye: NDArray[np.float64], frames: NDArray[np.float64]
+    ) -> None:
+        scn, con = self._scene, self._con
+        changes: list[tuple[list[int], list[int]]] = [([], [])] * len(self._rects)
         hidden: list[int] = []
         geoms: list[Any] = []
         types: list[int] = []
@@ -316,16 +359,20 @@ class OmniCamera:
                 # Per view, the geoms to hide and to show again relative to the previous view.
                 shown = np.ones(len(geoms), dtype=bool)
                 changes = []
-                for vis in self._visibility(data, ids):
+                for vis in self._visibility(data, eye, frames, ids):
                     hide, show = np.flatnonzero(shown & ~vis), np.flatnonzero(vis & ~shown)
                     changes.append((hide.tolist(), show.tolist()))
                     shown = vis
                 hidden = np.flatnonzero(~shown).tolist()
         none = mujoco.mjtGeom.mjGEOM_NONE
         try:
-            for i, (cam, rect) in enumerate(zip(self._cameras, self._rects, strict=True)):
-                if i > 0:
-                    mujoco.mjv_updateCamera(model, data, cam, scn)
+            for i, rect in enumerate(self._rects):
+                # Both eyes at the eye: the scene renders in mono; the frustum (fovy) is the
+                # same for every view and was set by mjv_updateScene.
+                for gl_camera in scn.camera:
+                    gl_camera.pos[:] = eye
+                    gl_camera.forward[:] = -frames[i, :, 2]
+                    gl_camera.up[:] = frames[i, :, 1]
                 hide, show = changes[i]
                 for j in hide:
                     geoms[j].type = none
@@ -348,30 +395,36 @@ class OmniCamera:
         Returns:
             ``(H, W, 3)`` uint8 RGB, C-contiguous, a new array on every call.
         """
-        self._ensure_maps()
         self._ensure_context()
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._con)
         # The geoms are the same for every view: build the scene once (with view 0 as its
-        # camera), then only move the scene camera from viewport to viewport.
+        # camera, which sets the frustum), then only turn the scene camera from viewport to
+        # viewport.
         mujoco.mjv_updateScene(
             self.model,
             data,
             self._option,
             self._perturb,
-            self._cameras[0],
+            self._scene_camera,
             mujoco.mjtCatBit.mjCAT_ALL,
             self._scene,
         )
         self._headlight_at_eye()
-        self._render_views(data)
+        eye, frames, shift, phase = self._view_frames(data)
+        self._render_views(data, eye, frames)
         mujoco.mjr_readPixels(self._buffer, None, self._full_rect, self._con)
+        map_x, map_y = self._remap_maps(phase)
         spec = self.spec
         out = np.empty((spec.height, spec.width, 3), dtype=np.uint8)
         if spec.supersample == 1:
-            cv2.remap(self._buffer, self._map_x, self._map_y, cv2.INTER_LINEAR, dst=out)
+            cv2.remap(self._buffer, map_x, map_y, cv2.INTER_LINEAR, dst=out)
         else:
-            cv2.remap(self._buffer, self._map_x, self._map_y, cv2.INTER_LINEAR, dst=self._fine)
+            cv2.remap(self._buffer, map_x, map_y, cv2.INTER_LINEAR, dst=self._fine)
             cv2.resize(self._fine, (spec.width, spec.height), dst=out, interpolation=cv2.INTER_AREA)
+        if shift:
+            # whole columns of the heading: column c looks where column c + shift of the
+            # resampled panorama looks
+            out = np.concatenate((out[:, shift:], out[:, :shift]), axis=1)
         return out
 
     # -- cleanup --------------------------------------------------------------------------------
