@@ -89,7 +89,8 @@ def test_rotation_shortcut_with_a_cropped_window_and_a_non_wrapping_network(pano
     np.testing.assert_allclose(y, fast.transform(views), atol=1e-9)
 
 
-@pytest.mark.parametrize("step", [2, 8])
+# step 1 is finer than layer 1's column stride (2): the shortcut runs once per phase
+@pytest.mark.parametrize("step", [1, 2, 8])
 def test_transform_rotations_equals_transform_of_every_view(panoramas, step):
     model = _net().fit_rotations(panoramas, step=4)
     y = model.transform_rotations(panoramas, step=step)

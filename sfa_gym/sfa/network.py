@@ -43,6 +43,7 @@ every rotated view (tested), at a fraction of the cost.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -445,8 +446,10 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         Equal to ``transform`` of the views ``np.roll(p, -k * step, axis=1)[:, :W_model]`` for
         ``k < K = W // step`` (:mod:`sfa_gym.rotation`), but with the rotation shortcut (see
         the module docstring) when it applies: the layers below the top run once per panorama
-        on the dense grid, the top node once per view. The paper averages estimates over these
-        views.
+        on the dense grid, the top node once per view. A step finer than layer 1's column
+        stride (``step=1``: every column) runs the shortcut once per phase of the stride. The
+        paper averages estimates over these views; an average over every column is invariant
+        to turning the rover by whole columns.
 
         Args:
             panoramas: ``(L, H, W, 3)`` uint8 with ``H`` the model's input height and ``W`` at
@@ -468,7 +471,17 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         n_rot = n_rotations(w, step)
         out = np.empty((n_loc, n_rot, self.n_outputs))
         specs = [p.spec for p in params]
-        if shortcut_obstacle(specs, w, step, window, self.weight_sharing):
+        obstacle = shortcut_obstacle(specs, w, step, window, self.weight_sharing)
+        coarse = math.lcm(step, specs[0].stride[1])
+        if obstacle and w % coarse == 0:
+            if not shortcut_obstacle(specs, w, coarse, window, self.weight_sharing):
+                # rotation k = j + i * per is rotation i of the panoramas turned by j steps
+                per = coarse // step
+                for j in range(per):
+                    turned = np.roll(panoramas, -j * step, axis=2)
+                    out[:, j::per] = self.transform_rotations(turned, coarse)
+                return out
+        if obstacle:
             columns = rotation_columns(w, step, window)
             for i in range(n_loc):
                 views = np.ascontiguousarray(panoramas[i][:, columns].transpose(1, 0, 2, 3))
