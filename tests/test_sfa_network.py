@@ -106,6 +106,21 @@ def test_transform_rotations_equals_transform_of_every_view(panoramas, step):
     )
 
 
+def test_features_averaged_over_every_column_ignore_whole_column_turns(panoramas):
+    """The mean over all one-column rotations is the same for a panorama turned by any number
+    of columns (here not multiples of layer 1's stride); over the stride's rotations it is not."""
+    model = _net().fit_rotations(panoramas, step=2)
+    mean = model.transform_rotations(panoramas[:3], step=1).mean(axis=1)
+    for k in (1, 3, 7):
+        turned = np.roll(panoramas[:3], -k, axis=2)
+        np.testing.assert_allclose(
+            model.transform_rotations(turned, step=1).mean(axis=1), mean, atol=1e-9
+        )
+    coarse = model.transform_rotations(panoramas[:3], step=2).mean(axis=1)
+    turned = model.transform_rotations(np.roll(panoramas[:3], -1, axis=2), step=2).mean(axis=1)
+    assert np.abs(turned - coarse).max() > 1e-3
+
+
 def test_fit_on_materialised_views_equals_brute_force_rotations(panoramas):
     views = _views(panoramas, 4)
     a = _net(batch_size=9).fit(views)
