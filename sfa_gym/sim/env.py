@@ -363,6 +363,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
             size = self.render_size
             # a driver of this process may have reported a smaller limit than the constant
             gl.check_framebuffer(size, size, f"render_size={size}")
+            gl.load_llvm_users()
             self._renderer = mujoco.Renderer(self.model, size, size)
         self._renderer.update_scene(self.data, camera="overhead")
         return self._renderer.render()

@@ -19,6 +19,7 @@ import atexit
 import contextlib
 import ctypes
 import ctypes.util
+import importlib.util
 import os
 import sys
 import weakref
@@ -181,6 +182,31 @@ def _driver_limit() -> int | None:
 _OWNED_CONTEXT: type | None = None
 
 
+_llvm_users_loaded = False
+
+
+def load_llvm_users() -> None:
+    """Import ``triton`` (torch's compiler, if installed) before the first GL context exists.
+
+    Mesa's llvmpipe loads its libLLVM with the first context, and triton carries an LLVM of its
+    own; should triton load second (torch imports it lazily, e.g. when an optimizer is built),
+    its LLVM calls bind to Mesa's library and the process dies with SIGSEGV. Loaded first, each
+    keeps its own. Costs about 0.3 s once per process, and nothing where triton is absent.
+    Every path to a context of this package calls it (:func:`new_context`, the env's top-down
+    renderer).
+    """
+    global _llvm_users_loaded
+    if _llvm_users_loaded:
+        return
+    _llvm_users_loaded = True
+    if importlib.util.find_spec("triton") is None:
+        return
+    try:
+        import triton  # noqa: F401
+    except Exception:  # a broken triton is torch's problem, not a reason not to render
+        pass
+
+
 def new_context(width: int, height: int, what: str) -> Any:
     """A current ``mujoco.GLContext`` for an offscreen buffer of ``width x height`` pixels.
 
@@ -192,6 +218,7 @@ def new_context(width: int, height: int, what: str) -> Any:
     global _OWNED_CONTEXT
     check_usable()
     check_framebuffer(width, height, what)
+    load_llvm_users()
     import mujoco  # configure() ran when the caller imported mujoco
 
     if _OWNED_CONTEXT is None:
