@@ -182,6 +182,8 @@ class OmniCamera:
         gl.check_framebuffer(lay.buffer_w, lay.buffer_h, str(spec))
         self._tan_half = ((lay.view_w / 2.0) / lay.focal, (lay.view_h / 2.0) / lay.focal)
         self._body_id = int(model.cam_bodyid[self._cam_ids[0]])
+        azimuths = _view_azimuths(spec)
+        self._view_cos_sin = (np.cos(azimuths)[:, None], np.sin(azimuths)[:, None])
         # Remap tables of the last heading phase (a standing or grid-stepping rover reuses them).
         self._maps: tuple[int, NDArray[Any], NDArray[Any]] | None = None
         # Skip, in each view, the geoms outside its frustum: same pixels, less geometry.
@@ -253,6 +255,8 @@ class OmniCamera:
         self._buffer = np.empty((lay.buffer_h, lay.buffer_w, 3), dtype=np.uint8)
         s = self.spec.supersample
         self._fine = np.empty((self.spec.height * s, self.spec.width * s, 3), dtype=np.uint8)
+        # the panorama before the whole columns of the heading are rolled in
+        self._resampled = np.empty((self.spec.height, self.spec.width, 3), dtype=np.uint8)
         self._cull_cache = None
 
     def _remap_maps(self, phase: int) -> tuple[NDArray[Any], NDArray[Any]]:
@@ -303,19 +307,20 @@ class OmniCamera:
         body = data.xmat[self._body_id].reshape(3, 3)
         heading_axis, up = body[:, 0], body[:, 2]
         # Compass axes in the mast's horizontal plane: world +x (or +y, should the mast point
-        # along x) made perpendicular to the mast. Upright, they are exactly world x and y, so
-        # the views are the same at every heading.
-        north = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        east = north - (north @ up) * up
-        east /= np.linalg.norm(east)
-        west_north = np.cross(up, east)
-        heading = math.atan2(heading_axis @ west_north, heading_axis @ east)
+        # along x) made perpendicular to the mast, and the axis 90 degrees counter-clockwise
+        # of it. Upright, they are exactly world x and y, so the views are the same at every
+        # heading.
+        reference = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        compass_x = reference - (reference @ up) * up
+        compass_x /= np.linalg.norm(compass_x)
+        compass_y = np.cross(up, compass_x)
+        heading = math.atan2(heading_axis @ compass_y, heading_axis @ compass_x)
         phases = heading_phases(self.spec)
         steps = round(heading / (2.0 * math.pi) * self.spec.width * phases)
         shift, phase = divmod(steps, phases)
-        azimuths = _view_azimuths(self.spec)
-        forward = np.cos(azimuths)[:, None] * east + np.sin(azimuths)[:, None] * west_north
-        frames = np.empty((len(azimuths), 3, 3))
+        cos, sin = self._view_cos_sin
+        forward = cos * compass_x + sin * compass_y
+        frames = np.empty((len(forward), 3, 3))
         frames[:, :, 0] = np.cross(forward, up)
         frames[:, :, 1] = up
         frames[:, :, 2] = -forward
@@ -414,18 +419,16 @@ class OmniCamera:
         self._render_views(data, eye, frames)
         mujoco.mjr_readPixels(self._buffer, None, self._full_rect, self._con)
         map_x, map_y = self._remap_maps(phase)
-        spec = self.spec
-        out = np.empty((spec.height, spec.width, 3), dtype=np.uint8)
+        spec, resampled = self.spec, self._resampled
         if spec.supersample == 1:
-            cv2.remap(self._buffer, map_x, map_y, cv2.INTER_LINEAR, dst=out)
+            cv2.remap(self._buffer, map_x, map_y, cv2.INTER_LINEAR, dst=resampled)
         else:
             cv2.remap(self._buffer, map_x, map_y, cv2.INTER_LINEAR, dst=self._fine)
-            cv2.resize(self._fine, (spec.width, spec.height), dst=out, interpolation=cv2.INTER_AREA)
-        if shift:
-            # whole columns of the heading: column c looks where column c + shift of the
-            # resampled panorama looks
-            out = np.concatenate((out[:, shift:], out[:, :shift]), axis=1)
-        return out
+            size = (spec.width, spec.height)
+            cv2.resize(self._fine, size, dst=resampled, interpolation=cv2.INTER_AREA)
+        # Whole columns of the heading: column c looks where column c + shift of the resampled
+        # panorama looks. The one copy also gives the caller a new array.
+        return np.concatenate((resampled[:, shift:], resampled[:, :shift]), axis=1)
 
     # -- cleanup --------------------------------------------------------------------------------
 
