@@ -473,14 +473,17 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         specs = [p.spec for p in params]
         obstacle = shortcut_obstacle(specs, w, step, window, self.weight_sharing)
         coarse = math.lcm(step, specs[0].stride[1])
-        if obstacle and w % coarse == 0:
-            if not shortcut_obstacle(specs, w, coarse, window, self.weight_sharing):
-                # rotation k = j + i * per is rotation i of the panoramas turned by j steps
-                per = coarse // step
-                for j in range(per):
-                    turned = np.roll(panoramas, -j * step, axis=2)
-                    out[:, j::per] = self.transform_rotations(turned, coarse)
-                return out
+        if (
+            obstacle
+            and w % coarse == 0
+            and not shortcut_obstacle(specs, w, coarse, window, self.weight_sharing)
+        ):
+            # rotation k = j + i * per is rotation i of the panoramas turned by j steps
+            per = coarse // step
+            for j in range(per):
+                turned = np.roll(panoramas, -j * step, axis=2)
+                out[:, j::per] = self.transform_rotations(turned, coarse)
+            return out
         if obstacle:
             columns = rotation_columns(w, step, window)
             for i in range(n_loc):
