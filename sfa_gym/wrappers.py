@@ -8,9 +8,16 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym.features import rotation_averaged_features
 from sfa_gym.rotation import check_window, n_rotations, rotated_views, rotation_angles
 
-__all__ = ["FeatureModel", "SimulatedRotation", "SlowFeatureObservation"]
+__all__ = [
+    "FeatureModel",
+    "FeatureProgressReward",
+    "GoalFeatureObservation",
+    "SimulatedRotation",
+    "SlowFeatureObservation",
+]
 
 
 class FeatureModel(Protocol):
@@ -152,13 +159,10 @@ class SlowFeatureObservation(
 
     def observation(self, observation: NDArray[np.uint8]) -> NDArray[np.float32]:
         """Features ``(k,)`` float32 of one panorama ``(H, W, 3)`` uint8."""
-        if self.average_rotations and hasattr(self.model, "transform_rotations"):
-            # hierarchical SFA computes all rotations at once, its lower layers only once
-            rotations = self.model.transform_rotations(observation[None], step=self.rotation_step)
-            features = np.asarray(rotations)[0].mean(axis=0)
-        elif self.average_rotations:
-            views, _ = rotated_views(observation, step=self.rotation_step, window=self._window)
-            features = np.asarray(self.model.transform(views)).mean(axis=0)
+        if self.average_rotations:
+            features = rotation_averaged_features(
+                self.model, observation[None], self.rotation_step, self._window
+            )[0]
         else:
             features = np.asarray(self.model.transform(observation[None]))[0]
         return features.astype(np.float32)
@@ -263,3 +267,150 @@ class SimulatedRotation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs)
         else:
             self._index = (self._index + 1) % self.n_views
         return self.observation(obs), reward, terminated, truncated, self._with_phi(info)
+
+
+def _feature_box(k: int) -> gym.spaces.Box:
+    return gym.spaces.Box(low=-np.inf, high=np.inf, shape=(k,), dtype=np.float32)
+
+
+class GoalFeatureObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """Replace the current and the goal panorama of a navigation env by their features.
+
+    The observation ``Dict(panorama, goal)`` of :class:`~sfa_gym.navigation.env.OmniRoverNavEnv`
+    becomes ``Dict(features=Box(k), goal_features=Box(k))``: the rotation-averaged features
+    (:func:`sfa_gym.features.rotation_averaged_features`) of each panorama, the same observation
+    the env gives with a feature field. The goal's features are computed once per episode.
+
+    Args:
+        env: a navigation env observing ``Dict(panorama=Box(H, W, 3), goal=Box(H, W, 3))``.
+        model: a fitted feature model (see :class:`FeatureModel`): hierarchical SFA, or a
+            feature method of ``baselines/`` after ``fit`` (|FFT|, band means, PCA).
+        step: rotation step in columns for the average; must divide ``W``. The default 1
+            averages over every column, which makes the features the same whichever way the
+            rover faces (to rounding, for whole-column headings).
+
+    Example:
+        >>> import gymnasium as gym
+        >>> import numpy as np
+        >>> import sfa_gym
+        >>> class MeanColour:
+        ...     input_shape_ = (40, 350, 3)
+        ...     def transform(self, views):
+        ...         return views.reshape(len(views), -1, 3).mean(axis=1)
+        >>> env = GoalFeatureObservation(gym.make("sfa_gym/OmniRoverNav-v0"), MeanColour())
+        >>> obs, info = env.reset(seed=0)
+        >>> sorted(obs), obs["features"].shape
+        (['features', 'goal_features'], (3,))
+        >>> env.close()
+    """
+
+    def __init__(self, env: gym.Env, model: FeatureModel, step: int = 1) -> None:
+        gym.utils.RecordConstructorArgs.__init__(self, model=model, step=step)
+        gym.Wrapper.__init__(self, env)
+        space = env.observation_space
+        if not isinstance(space, gym.spaces.Dict) or set(space.spaces) != {"panorama", "goal"}:
+            raise TypeError(
+                "GoalFeatureObservation needs a navigation env observing Dict(panorama, goal) "
+                f"(an OmniRoverNavEnv without a feature field), got {space}"
+            )
+        height, width, _ = space["panorama"].shape
+        input_shape = getattr(model, "input_shape_", None)
+        if input_shape is None or not callable(getattr(model, "transform", None)):
+            raise TypeError(
+                "GoalFeatureObservation needs a fitted feature model with input_shape_ and "
+                f"transform(views), got {type(model).__name__}"
+            )
+        if int(input_shape[0]) != height or int(input_shape[1]) > width:
+            raise ValueError(
+                f"GoalFeatureObservation: the model takes views of shape {tuple(input_shape)}, "
+                f"which are not rotation windows of the env's panoramas {space['panorama'].shape}"
+            )
+        try:
+            n_rotations(width, step)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"GoalFeatureObservation(step={step!r}): {error}") from error
+        self.model = model
+        self.rotation_step = step
+        self._window = int(input_shape[1])
+        probe = self._features(np.zeros((1, height, width, 3), np.uint8))
+        box = _feature_box(probe.shape[1])
+        self.observation_space = gym.spaces.Dict({"features": box, "goal_features": box})
+        self._goal_features = np.zeros(box.shape, np.float32)
+
+    def _features(self, panoramas: NDArray[np.uint8]) -> NDArray[np.float32]:
+        features = rotation_averaged_features(
+            self.model, panoramas, self.rotation_step, self._window
+        )
+        return features.astype(np.float32)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, NDArray[np.float32]], dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        both = self._features(np.stack([obs["panorama"], obs["goal"]]))
+        self._goal_features = both[1]
+        return {"features": both[0], "goal_features": self._goal_features}, info
+
+    def step(
+        self, action: Any
+    ) -> tuple[dict[str, NDArray[np.float32]], SupportsFloat, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        features = self._features(obs["panorama"][None])[0]
+        obs = {"features": features, "goal_features": self._goal_features}
+        return obs, reward, terminated, truncated, info
+
+
+class FeatureProgressReward(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """Reward the decrease of the distance between the current and the goal features.
+
+    What a robot can compute itself, without a map: ``r_t = d_{t-1} - d_t`` with
+    ``d = sqrt(sum_i w_i (f_i - g_i)^2)``, plus ``success_reward`` when ``info["success"]``.
+    It replaces the env's reward.
+
+    Args:
+        env: an env observing ``Dict(features=Box(k), goal_features=Box(k))`` (a navigation env
+            with a feature field, or wrapped in :class:`GoalFeatureObservation`).
+        weights: ``(k,)`` non-negative feature weights; None weighs every feature 1.
+        success_reward: added on success.
+    """
+
+    def __init__(self, env: gym.Env, weights: Any = None, success_reward: float = 1.0) -> None:
+        gym.utils.RecordConstructorArgs.__init__(
+            self, weights=weights, success_reward=success_reward
+        )
+        gym.Wrapper.__init__(self, env)
+        space = env.observation_space
+        if not isinstance(space, gym.spaces.Dict) or set(space.spaces) != {
+            "features",
+            "goal_features",
+        }:
+            raise TypeError(
+                "FeatureProgressReward needs an env observing Dict(features, goal_features), "
+                f"got {space}"
+            )
+        k = space["features"].shape[0]
+        w = np.ones(k) if weights is None else np.asarray(weights, dtype=np.float64)
+        if w.shape != (k,) or not np.all(np.isfinite(w)) or np.any(w < 0):
+            raise ValueError(
+                f"weights must be {k} finite non-negative numbers (one a feature), got {weights!r}"
+            )
+        self.weights = w
+        self.success_reward = float(success_reward)
+        self._distance = 0.0
+
+    def _feature_distance(self, obs: dict[str, NDArray[np.float32]]) -> float:
+        diff = obs["features"].astype(np.float64) - obs["goal_features"]
+        return float(np.sqrt(np.sum(self.weights * diff * diff)))
+
+    def reset(self, **kwargs: Any) -> tuple[dict[str, NDArray[np.float32]], dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        self._distance = self._feature_distance(obs)
+        return obs, info
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        obs, _, terminated, truncated, info = self.env.step(action)
+        previous, self._distance = self._distance, self._feature_distance(obs)
+        reward = previous - self._distance
+        if info.get("success"):
+            reward += self.success_reward
+        return obs, reward, terminated, truncated, info

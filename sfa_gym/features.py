@@ -1,0 +1,53 @@
+"""Rotation-averaged features: what a feature model says about a place, whichever way the rover
+faces.
+
+The paper averages its estimates over the simulated rotations of one location; navigation
+compares such averages between the current and the goal panorama. Numpy only.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sfa_gym.rotation import rotated_views
+
+__all__ = ["rotation_averaged_features"]
+
+
+def rotation_averaged_features(
+    model: Any, panoramas: NDArray[np.uint8], step: int = 1, window: int | None = None
+) -> NDArray[np.float64]:
+    """Mean features over the simulated rotations of each panorama.
+
+    Args:
+        model: a fitted feature model: ``transform(views (N, H, w, 3) uint8) -> (N, k)``, and
+            optionally ``transform_rotations(panoramas, step) -> (L, K, k)`` (hierarchical SFA
+            computes all rotations at once, its lower layers only once per panorama).
+        panoramas: ``(L, H, W, 3)`` uint8.
+        step: shift between rotations in columns; must divide ``W``. ``step=1`` averages over
+            every column, which makes the average invariant to turning by whole columns.
+        window: width of the rotated views the model takes (its ``input_shape_[1]``); ``None``
+            reads ``model.input_shape_`` when it has one, else uses the full width.
+
+    Returns:
+        ``(L, k)`` float64.
+    """
+    panoramas = np.asarray(panoramas)
+    if panoramas.ndim != 4 or panoramas.shape[3] != 3 or panoramas.dtype != np.uint8:
+        raise ValueError(
+            f"panoramas must be (L, H, W, 3) uint8, got shape {panoramas.shape} "
+            f"and dtype {panoramas.dtype}"
+        )
+    if hasattr(model, "transform_rotations"):
+        return np.asarray(model.transform_rotations(panoramas, step=step), np.float64).mean(1)
+    if window is None:
+        shape = getattr(model, "input_shape_", None)
+        window = panoramas.shape[2] if shape is None else int(shape[1])
+    out = []
+    for panorama in panoramas:
+        views, _ = rotated_views(panorama, step=step, window=window)
+        out.append(np.asarray(model.transform(views), np.float64).mean(axis=0))
+    return np.stack(out) if out else np.empty((0, 0))
