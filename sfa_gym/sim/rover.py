@@ -87,6 +87,15 @@ class RoverSpec:
             )
 
     @property
+    def footprint_radius(self) -> float:
+        """Half the diagonal of the rover's outer footprint (m): the radius of the smallest circle
+        around it, so a centre this far from every obstacle can turn on the spot. The footprint
+        is the chassis or the wheels, whichever reaches farther, in length and in width."""
+        length = max(self.chassis_size[0], self.wheelbase + 2 * self.wheel_radius)
+        width = max(self.chassis_size[1], self.track + self.wheel_width)
+        return math.hypot(length, width) / 2
+
+    @property
     def effective_track(self) -> float:
         """Track of the ideal differential drive that turns like this skid-steer rover (m)."""
         return self.track * self.turn_slip

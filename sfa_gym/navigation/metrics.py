@@ -1,0 +1,86 @@
+"""Navigation metrics: success, SPL and SoftSPL (Anderson et al. 2018, arXiv 1807.06757;
+Habitat's SoftSPL), with confidence intervals over episodes.
+
+For one episode with success ``S`` (0 or 1), geodesic shortest-path length ``l`` from the start
+to the goal and length ``p`` of the path the agent took:
+
+- ``SPL = S * l / max(p, l)``;
+- ``SoftSPL = max(0, 1 - d / l) * l / max(p, l)``, with ``d`` the geodesic distance to the goal
+  at the end: progress towards the goal instead of binary success.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["confidence_interval", "soft_spl", "spl", "summarize_episodes"]
+
+EPISODE_KEYS = (
+    "success",
+    "spl",
+    "soft_spl",
+    "final_distance",
+    "path_ratio",
+    "collisions",
+    "steps",
+)
+"""Per-episode quantities that :func:`summarize_episodes` averages."""
+
+
+def _lengths(shortest: ArrayLike, path: ArrayLike) -> tuple[NDArray, NDArray]:
+    shortest = np.asarray(shortest, dtype=np.float64)
+    path = np.asarray(path, dtype=np.float64)
+    if np.any(~(shortest > 0)) or np.any(~np.isfinite(shortest)):
+        raise ValueError(f"shortest path lengths must be positive and finite, got {shortest!r}")
+    if np.any(~(path >= 0)) or np.any(~np.isfinite(path)):
+        raise ValueError(f"path lengths must be >= 0 and finite, got {path!r}")
+    return shortest, path
+
+
+def spl(success: ArrayLike, shortest: ArrayLike, path: ArrayLike) -> NDArray[np.float64]:
+    """Success weighted by path length, per episode: ``S * l / max(p, l)``."""
+    shortest, path = _lengths(shortest, path)
+    s = np.asarray(success, dtype=np.float64)
+    return s * shortest / np.maximum(path, shortest)
+
+
+def soft_spl(
+    final_distance: ArrayLike, shortest: ArrayLike, path: ArrayLike
+) -> NDArray[np.float64]:
+    """SoftSPL per episode: ``max(0, 1 - d / l) * l / max(p, l)``."""
+    shortest, path = _lengths(shortest, path)
+    d = np.asarray(final_distance, dtype=np.float64)
+    return np.maximum(0.0, 1.0 - d / shortest) * shortest / np.maximum(path, shortest)
+
+
+def confidence_interval(
+    values: ArrayLike, level: float = 0.95, n_resamples: int = 2000, seed: int = 0
+) -> tuple[float, float]:
+    """Percentile bootstrap interval of the mean (deterministic: a fixed resampling seed)."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.size == 0:
+        return (float("nan"), float("nan"))
+    rng = np.random.default_rng(seed)
+    means = values[rng.integers(values.size, size=(n_resamples, values.size))].mean(axis=1)
+    tail = (1.0 - level) / 2
+    low, high = np.quantile(means, [tail, 1.0 - tail])
+    return float(low), float(high)
+
+
+def summarize_episodes(episodes: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Mean and 95 % interval of each of :data:`EPISODE_KEYS` over ``episodes``.
+
+    Each episode maps those keys to numbers (``success`` may be a bool).
+    """
+    summary: dict[str, Any] = {"episodes": len(episodes)}
+    for key in EPISODE_KEYS:
+        values = np.array([float(e[key]) for e in episodes])
+        summary[key] = {
+            "mean": float(values.mean()) if values.size else float("nan"),
+            "ci95": list(confidence_interval(values)),
+        }
+    return summary
