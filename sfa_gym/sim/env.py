@@ -267,14 +267,11 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         return float(self.data.qpos[self._qpos0 + 2])
 
     def _free_position(self, candidates: NDArray[np.float64]) -> tuple[float, float]:
-        """The first candidate ``(x, y)`` where the rover clears every obstacle."""
-        clearance = math.hypot(*self.rover.chassis_size[:2]) / 2
-        for x, y in candidates:
-            if all(
-                math.hypot(x - ox, y - oy) > r + clearance for ox, oy, r in self.layout.obstacles
-            ):
-                return float(x), float(y)
-        return float(candidates[-1][0]), float(candidates[-1][1])
+        """The first candidate ``(x, y)`` where the rover clears every obstacle and interior
+        wall (the last candidate if none does)."""
+        free = np.flatnonzero(self.layout.clearance(candidates) > self.rover.footprint_radius)
+        x, y = candidates[free[0] if free.size else -1]
+        return float(x), float(y)
 
     def _place(self, x: float, y: float, yaw: float) -> None:
         m, d = self.model, self.data

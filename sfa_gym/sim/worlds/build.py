@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from sfa_gym.sim.worlds.spec import ColourRange, SurfaceSpec, WorldSpec
 
@@ -31,11 +32,61 @@ class WorldLayout:
         bounds: drivable area ``(xmin, xmax, ymin, ymax)``.
         obstacles: ``(x, y, radius)`` of each obstacle's bounding circle inside the arena.
         landmarks: ``(kind, x, y, height)`` of each landmark outside the walls.
+        walls: ``(x0, y0, x1, y1, half_thickness)`` of each interior wall: its centre line and
+            half its thickness. The set of points within ``half_thickness`` of the centre line
+            (a capsule) contains the wall's box.
     """
 
     bounds: tuple[float, float, float, float]
     obstacles: tuple[tuple[float, float, float], ...]
     landmarks: tuple[tuple[str, float, float, float], ...]
+    walls: tuple[tuple[float, float, float, float, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        for i, wall in enumerate(self.walls):
+            if len(wall) != 5 or not all(math.isfinite(v) for v in wall):
+                raise ValueError(
+                    f"layout walls[{i}] must be 5 finite numbers (x0, y0, x1, y1, "
+                    f"half_thickness), got {wall!r}"
+                )
+            if not wall[4] > 0:
+                raise ValueError(f"layout walls[{i}] half_thickness must be positive, got {wall!r}")
+        for i, obstacle in enumerate(self.obstacles):
+            if len(obstacle) != 3 or not obstacle[2] >= 0:
+                raise ValueError(
+                    f"layout obstacles[{i}] must be (x, y, radius) with radius >= 0, "
+                    f"got {obstacle!r}"
+                )
+
+    def clearance(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Distance (m) from each point to the nearest obstacle or interior wall surface.
+
+        Obstacles count as their bounding circles, walls as capsules around their centre lines
+        (see :attr:`walls`); negative inside one. The arena's bounds do not count.
+
+        Args:
+            points: ``(n, 2)`` positions ``(x, y)`` in metres, world frame.
+
+        Returns:
+            ``(n,)`` distances; ``inf`` where the world has no obstacles and no walls.
+        """
+        p = np.asarray(points, dtype=np.float64)
+        if p.ndim != 2 or p.shape[1] != 2:
+            raise ValueError(f"points must have shape (n, 2), got {p.shape}")
+        out = np.full(len(p), np.inf)
+        if self.obstacles:
+            c = np.asarray(self.obstacles, dtype=np.float64)
+            d = np.hypot(p[:, None, 0] - c[:, 0], p[:, None, 1] - c[:, 1]) - c[:, 2]
+            out = np.minimum(out, d.min(axis=1))
+        if self.walls:
+            w = np.asarray(self.walls, dtype=np.float64)
+            a, ab = w[:, 0:2], w[:, 2:4] - w[:, 0:2]
+            ap = p[:, None, :] - a  # (n, k, 2)
+            length2 = np.maximum((ab**2).sum(axis=1), 1e-300)
+            t = np.clip((ap * ab).sum(axis=2) / length2, 0.0, 1.0)
+            d = np.linalg.norm(ap - t[..., None] * ab, axis=2) - w[:, 4]
+            out = np.minimum(out, d.min(axis=1))
+        return out
 
 
 @dataclass(frozen=True)
@@ -135,18 +186,34 @@ Circle = tuple[float, float, float]
 """``(x, y, radius)`` of a footprint's bounding circle, metres."""
 
 
+Wall = tuple[float, float, float, float, float]
+"""``(x0, y0, x1, y1, half_thickness)`` of an interior wall, metres."""
+
+
+def _segment_distance(x: float, y: float, wall: Wall) -> float:
+    """Distance from ``(x, y)`` to the wall's centre line."""
+    x0, y0, x1, y1, _ = wall
+    dx, dy = x1 - x0, y1 - y0
+    t = min(1.0, max(0.0, ((x - x0) * dx + (y - y0) * dy) / (dx * dx + dy * dy)))
+    return math.hypot(x - x0 - t * dx, y - y0 - t * dy)
+
+
 def _place(
     draw: Callable[[], tuple[float, float]],
     radius: float,
     placed: list[Circle],
     min_gap: float,
     attempts: int,
+    walls: tuple[Wall, ...] = (),
 ) -> tuple[float, float] | None:
     """The first of up to ``attempts`` points ``draw()`` whose circle of ``radius`` keeps
-    ``min_gap`` from every circle in ``placed``; ``None`` if none does. The caller appends it."""
+    ``min_gap`` from every circle in ``placed`` and every wall in ``walls``; ``None`` if none
+    does. The caller appends it."""
     for _ in range(attempts):
         x, y = draw()
-        if all(math.hypot(x - px, y - py) >= radius + pr + min_gap for px, py, pr in placed):
+        if all(
+            math.hypot(x - px, y - py) >= radius + pr + min_gap for px, py, pr in placed
+        ) and all(_segment_distance(x, y, w) >= radius + w[4] + min_gap for w in walls):
             return x, y
     return None
 
@@ -222,8 +289,14 @@ def _landmarks(b: _Builder) -> list[tuple[str, float, float, float]]:
     return out
 
 
+def _walls(spec: WorldSpec) -> tuple[Wall, ...]:
+    half = spec.interior_walls.thickness / 2
+    return tuple((*segment, half) for segment in spec.interior_walls.segments)
+
+
 def _obstacles(b: _Builder) -> list[Circle]:
     spec, rng = b.spec.obstacles, b.rng
+    walls = _walls(b.spec)
     xmin, xmax, ymin, ymax = b.spec.arena.bounds
     placed: list[Circle] = []
     for i in range(spec.count):
@@ -236,10 +309,11 @@ def _obstacles(b: _Builder) -> list[Circle]:
         def in_arena(hx: float = hx, hy: float = hy) -> tuple[float, float]:
             return rng.uniform(-hx, hx), rng.uniform(-hy, hy)
 
-        point = _place(in_arena, radius, placed, spec.min_gap, attempts=1000)
+        point = _place(in_arena, radius, placed, spec.min_gap, attempts=1000, walls=walls)
         if point is None:
             raise ValueError(
                 f"cannot place {spec.count} obstacles apart by min_gap {spec.min_gap} in the arena"
+                + (" around its interior walls" if walls else "")
             )
         x, y = point
         placed.append((x, y, radius))
@@ -253,6 +327,28 @@ def _obstacles(b: _Builder) -> list[Circle]:
             f'<geom name="obstacle{i}" {shape} pos="{_vec(x, y, height / 2)}" material="{mat}"/>'
         )
     return placed
+
+
+def _interior_walls(b: _Builder) -> list[str]:
+    """Geoms of the interior walls, split into panels textured like the arena walls."""
+    spec = b.spec.interior_walls
+    t, h = spec.thickness, spec.height
+    geoms = []
+    for w, (x0, y0, x1, y1) in enumerate(spec.segments):
+        length = math.hypot(x1 - x0, y1 - y0)
+        n = max(1, math.ceil(length / spec.panel_length - 1e-9))
+        # thin along the local x axis, like the arena's panels (see _wall_panels)
+        yaw = math.degrees(math.atan2(y1 - y0, x1 - x0)) - 90.0
+        for p in range(n):
+            f = (p + 0.5) / n
+            mat = b.surface_material(b.spec.walls)
+            pos = (x0 + f * (x1 - x0), y0 + f * (y1 - y0), h / 2)
+            geoms.append(
+                f'<geom name="iwall{w}_{p}" type="box" pos="{_vec(*pos)}" '
+                f'size="{_vec(t / 2, length / n / 2, h / 2)}" euler="0 0 {_num(yaw)}" '
+                f'material="{mat}"/>'
+            )
+    return geoms
 
 
 def _lights(b: _Builder) -> None:
@@ -314,11 +410,15 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
     # depth test discard hidden ground pixels early (about 10 % faster on llvmpipe). The
     # plane's third size is its rendering grid: with directional and ambient light only, one
     # coarse grid looks like a fine one and renders faster.
+    ground_index = len(b.body)
     b.body.append(
         f'<geom name="ground" type="plane" size="{_vec(ground_half, ground_half, ground_half)}" '
         f'material="{ground}"/>'
     )
     _lights(b)
+    # Drawn last so that a spec without interior walls builds the worlds it built before they
+    # existed; placed before the ground for the draw order above.
+    b.body[ground_index:ground_index] = _interior_walls(b)
 
     view_half = max(hx, hy) + arena.wall_thickness + 1.2
     cam_height = 2.5 * view_half
@@ -364,5 +464,6 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
         bounds=arena.bounds,
         obstacles=tuple(obstacles),
         landmarks=tuple(landmarks),
+        walls=_walls(spec),
     )
     return World(mjcf=mjcf, layout=layout)

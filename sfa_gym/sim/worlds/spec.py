@@ -1,7 +1,8 @@
 """Worlds as data: a JSON world spec plus a world seed -> a MuJoCo model (MJCF text).
 
 A world is a walled, flat arena that the rover drives in, surrounded by landmarks (trees,
-coloured pillars, blocks) standing outside the walls, under a gradient sky. The spec (see
+coloured pillars, blocks) standing outside the walls, under a gradient sky; navigation worlds
+add obstacles and interior walls inside the arena. The spec (see
 ``envs/paper_sim.json``) fixes the geometry and the *ranges* of colours, textures, sizes and
 counts; the world seed draws one world from those ranges with ``np.random.default_rng``:
 the same spec and seed give the identical MJCF string, another seed gives another world.
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import colorsys
 import json
+import math
 import os
 import types
 import typing
@@ -216,6 +218,44 @@ class ObstaclesSpec:
 
 
 @dataclass(frozen=True)
+class InteriorWallsSpec:
+    """Straight walls inside the arena (for navigation worlds; none by default).
+
+    They are textured like the arena walls (panels drawn from the ``walls`` surface) and
+    collide with the rover like them. Their panels are drawn after everything else in the
+    world, so adding interior walls to a spec leaves the rest of its worlds unchanged.
+
+    Attributes:
+        segments: centre lines ``[x0, y0, x1, y1]`` (m, world frame); each end must lie within
+            the arena's inner area. A wall is a box of the segment's length and ``thickness``;
+            walls that meet at an end leave a notch of ``thickness / 2`` at the outer corner.
+        thickness: thickness of every wall (m).
+        height: height of every wall (m).
+        panel_length: each wall is split into equal panels no longer than this (m), each with
+            its own texture.
+    """
+
+    segments: tuple[tuple[float, float, float, float], ...] = ()
+    thickness: float = 0.1
+    height: float = 0.8
+    panel_length: float = 1.75
+
+    def __post_init__(self) -> None:
+        for name in ("thickness", "height", "panel_length"):
+            _check_positive(getattr(self, name), f"interior_walls {name}")
+        for i, segment in enumerate(self.segments):
+            if not all(math.isfinite(v) for v in segment):
+                raise ValueError(
+                    f"interior_walls segments[{i}] must be finite numbers, got {list(segment)}"
+                )
+            x0, y0, x1, y1 = segment
+            if math.hypot(x1 - x0, y1 - y0) < 1e-6:
+                raise ValueError(
+                    f"interior_walls segments[{i}] has zero length: {list(segment)}"
+                )
+
+
+@dataclass(frozen=True)
 class DirectionalLight:
     """A directional light shining from ``azimuth_deg`` (from +x, counter-clockwise) and
     ``elevation_deg`` above the horizon, with diffuse intensity ``diffuse`` (0..1)."""
@@ -276,6 +316,7 @@ class WorldSpec:
     walls: SurfaceSpec = SurfaceSpec()
     landmarks: LandmarksSpec = LandmarksSpec()
     obstacles: ObstaclesSpec = ObstaclesSpec()
+    interior_walls: InteriorWallsSpec = InteriorWallsSpec()
     lights: LightsSpec = LightsSpec()
     sky: SkySpec = SkySpec()
 
@@ -285,6 +326,13 @@ class WorldSpec:
         # XML cannot carry control characters, even escaped
         if any(ord(ch) < 32 or ord(ch) == 127 for ch in self.name):
             raise ValueError(f"world name must not contain control characters, got {self.name!r}")
+        hx, hy = self.arena.size[0] / 2, self.arena.size[1] / 2
+        for i, (x0, y0, x1, y1) in enumerate(self.interior_walls.segments):
+            if max(abs(x0), abs(x1)) > hx + 1e-9 or max(abs(y0), abs(y1)) > hy + 1e-9:
+                raise ValueError(
+                    f"interior_walls segments[{i}] {[x0, y0, x1, y1]} reaches outside the "
+                    f"arena: its ends must satisfy |x| <= {hx} and |y| <= {hy}"
+                )
 
 
 def _convert(value: Any, hint: Any, where: str) -> Any:
