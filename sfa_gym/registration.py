@@ -9,10 +9,22 @@ from __future__ import annotations
 import gymnasium as gym
 
 ENV_IDS = ("sfa_gym/OmniRover-v0", "sfa_gym/OmniRoverOutdoorCam-v0")
+"""Exploration envs: no task, panorama observations."""
+NAV_ENV_IDS = (
+    "sfa_gym/OmniRoverNav-v0",
+    "sfa_gym/OmniRoverNavObstacles-v0",
+    "sfa_gym/OmniRoverNavMaze-v0",
+)
+"""Image-goal navigation envs."""
 
 _ENTRY_POINT = "sfa_gym.sim.env:OmniRoverEnv"
+_NAV_ENTRY_POINT = "sfa_gym.navigation.env:OmniRoverNavEnv"
 # 100 s of driving at the default control period of 0.1 s.
 _MAX_EPISODE_STEPS = 1000
+# Navigation: 60 s, 24 m at full speed, three times the arena's diagonal; the maze's detours
+# around the arms get 100 s.
+_NAV_STEPS = 600
+_MAZE_STEPS = 1000
 
 
 def register_envs() -> None:
@@ -22,17 +34,30 @@ def register_envs() -> None:
       simulator).
     * ``sfa_gym/OmniRoverOutdoorCam-v0``: the same world seen at the paper's outdoor camera
       resolution, 600 x 60.
+    * ``sfa_gym/OmniRoverNav-v0``: image-goal navigation in the open ``paper_sim`` arena
+      (:class:`~sfa_gym.navigation.env.OmniRoverNavEnv`), 600 steps.
+    * ``sfa_gym/OmniRoverNavObstacles-v0``: the same with seeded obstacles inside the arena
+      (``paper_sim_obstacles``), 600 steps.
+    * ``sfa_gym/OmniRoverNavMaze-v0``: the same with a plus-shaped wall through the arena
+      (``paper_sim_maze``): straight lines between quadrants are blocked; 1000 steps.
     """
     specs = {
-        "sfa_gym/OmniRover-v0": {"world": "paper_sim", "panorama": "paper_sim"},
-        "sfa_gym/OmniRoverOutdoorCam-v0": {"world": "paper_sim", "panorama": "paper_outdoor"},
+        "sfa_gym/OmniRover-v0": (_ENTRY_POINT, _MAX_EPISODE_STEPS, {"world": "paper_sim"}),
+        "sfa_gym/OmniRoverOutdoorCam-v0": (
+            _ENTRY_POINT,
+            _MAX_EPISODE_STEPS,
+            {"world": "paper_sim", "panorama": "paper_outdoor"},
+        ),
+        "sfa_gym/OmniRoverNav-v0": (_NAV_ENTRY_POINT, _NAV_STEPS, {"world": "paper_sim"}),
+        "sfa_gym/OmniRoverNavObstacles-v0": (
+            _NAV_ENTRY_POINT,
+            _NAV_STEPS,
+            {"world": "paper_sim_obstacles"},
+        ),
+        "sfa_gym/OmniRoverNavMaze-v0": (_NAV_ENTRY_POINT, _MAZE_STEPS, {"world": "paper_sim_maze"}),
     }
-    for env_id, kwargs in specs.items():
+    for env_id, (entry_point, steps, kwargs) in specs.items():
         if env_id in gym.registry:
             continue
-        gym.register(
-            id=env_id,
-            entry_point=_ENTRY_POINT,
-            max_episode_steps=_MAX_EPISODE_STEPS,
-            kwargs=kwargs,
-        )
+        kwargs.setdefault("panorama", "paper_sim")
+        gym.register(id=env_id, entry_point=entry_point, max_episode_steps=steps, kwargs=kwargs)

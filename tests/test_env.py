@@ -13,7 +13,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import sfa_gym  # noqa: F401  (registers the ids)
-from sfa_gym.registration import ENV_IDS
+from sfa_gym.registration import ENV_IDS, NAV_ENV_IDS
 from sfa_gym.sim.camera import PanoramaSpec
 from sfa_gym.sim.env import OmniRoverEnv
 from sfa_gym.sim.worlds import ObstaclesSpec, load_world_spec
@@ -73,7 +73,7 @@ def test_registration_is_idempotent():
     register_envs()
     register_envs()
     after = {k: v for k, v in gym.registry.items() if k.startswith("sfa_gym/")}
-    assert before.keys() == after.keys() == set(ENV_IDS)
+    assert before.keys() == after.keys() == set(ENV_IDS) | set(NAV_ENV_IDS)
 
 
 def test_same_seeds_give_bit_identical_panoramas():

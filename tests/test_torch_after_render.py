@@ -62,3 +62,32 @@ def test_an_optimizer_after_the_top_down_render():
     )
     assert done.returncode == 0, f"exit {done.returncode}\n{done.stderr[-2000:]}"
     assert "ok (256, 256, 3)" in done.stdout
+
+
+def test_ppo_trains_on_the_rendered_navigation_env_in_subprocess_workers():
+    # two workers render image-goal episodes; the policy sees both panoramas (MultiInputPolicy:
+    # a CNN per image); the parent has rendered too, so the workers are spawned
+    done = run_fresh(
+        """
+        import gymnasium as gym
+        import sfa_gym
+        from sfa_gym.sim.camera import PanoramaSpec
+        from stable_baselines3 import PPO
+        from stable_baselines3.common.env_util import make_vec_env
+        from stable_baselines3.common.vec_env import SubprocVecEnv
+
+        def make():
+            return gym.make("sfa_gym/OmniRoverNav-v0", panorama=PanoramaSpec(width=96, height=40),
+                            stop_action=False)
+
+        if __name__ == "__main__":
+            make().reset(seed=0)  # the parent renders first
+            venv = make_vec_env(make, n_envs=2, seed=0, vec_env_cls=SubprocVecEnv,
+                                vec_env_kwargs={"start_method": "spawn"})
+            model = PPO("MultiInputPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=0)
+            model.learn(total_timesteps=256)
+            print("trained", model.num_timesteps)
+        """
+    )
+    assert done.returncode == 0, f"exit {done.returncode}\n{done.stderr[-2000:]}"
+    assert "trained 256" in done.stdout

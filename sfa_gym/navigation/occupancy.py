@@ -228,9 +228,9 @@ class GeodesicField:
             self._to_goal = np.zeros(0)
 
     def distance(self, points: ArrayLike) -> NDArray[np.float64]:
-        """``(n,)`` geodesic distance (m) from each point to the goal; inf where unreachable or
-        off the grid. A point in the margin around an obstacle (a rover grazing it) is measured
-        via the nearest free cell."""
+        """``(n,)`` geodesic distance (m) from each point to the goal; inf where unreachable. A
+        point in the margin around an obstacle or just off the grid (a rover grazing an obstacle
+        or a wall) is measured via the nearest free cell."""
         p = _points(points)
         out = np.full(len(p), np.inf)
         for k, q in enumerate(p):
@@ -239,10 +239,8 @@ class GeodesicField:
 
     def _distance_one(self, q: NDArray[np.float64]) -> tuple[float, int]:
         grid = self.grid
-        j, i, inside = grid._cells(q[None])
-        if not inside[0]:
-            return math.inf, -1
-        if not grid.free[j[0], i[0]]:
+        j, i, _ = grid._cells(q[None])  # off the grid: from its nearest cell
+        if not grid.free[j[0], i[0]] or not grid.is_free(q[None])[0]:
             if not grid.free.any():
                 return math.inf, -1
             nj, ni = grid._nearest_free[j[0], i[0]]

@@ -1,0 +1,354 @@
+"""Controllers for image-goal navigation: the slow-feature-gradient controller, an oracle on
+ground truth (upper bound) and a random policy (floor).
+
+A controller sees what :class:`~sfa_gym.navigation.env.OmniRoverNavEnv` gives (its observation
+``{"features", "goal_features"}`` and ``info``) and returns an action ``(v, w, stop)``:
+
+    controller.reset(obs, info)
+    action = controller.act(obs, info)
+
+The gradient controller uses only the rover's own senses: the features, the wheel odometry
+(``info["odometry"]``) and the range sensor (``info["range"]``). The oracle reads the ground truth
+pose and the occupancy grid, and is labelled as such everywhere.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "Controller",
+    "GradientController",
+    "GradientSettings",
+    "OracleController",
+    "RandomController",
+    "slowness_weights",
+]
+
+
+class Controller(Protocol):
+    """Navigation controller: ``reset`` at the start of an episode, then ``act`` every step."""
+
+    name: str
+
+    def reset(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> None: ...
+
+    def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]: ...
+
+
+def _wrap(angle: float) -> float:
+    return math.remainder(angle, math.tau)
+
+
+def slowness_weights(sequence: ArrayLike) -> NDArray[np.float64]:
+    """Feature weights ``1 / delta_i`` of standardised features, from features ``(T, k)`` along a
+    trajectory in time order (a training run; no positions needed).
+
+    ``delta_i = mean((f_i[t+1] - f_i[t])^2) / var(f_i)`` is the slowness SFA minimises. A cost
+    ``sum_i w_i (f_i - g_i)^2`` with ``w_i = 1 / (delta_i var(f_i)) = 1 / mean(diff_i^2)`` weighs
+    the standardised features by their slowness: slow features, which vary smoothly over the whole
+    arena, dominate, and fast ones, whose many extrema would create false minima, count less. In
+    these weights every feature changes by about one unit per step of the trajectory, so the
+    cost is roughly ``k`` times the squared distance in trajectory steps.
+    """
+    f = np.asarray(sequence, dtype=np.float64)
+    if f.ndim != 2 or len(f) < 3:
+        raise ValueError(f"sequence must be (T, k) features with T >= 3, got shape {f.shape}")
+    mean_square_step = np.mean(np.diff(f, axis=0) ** 2, axis=0)
+    if np.any(~(mean_square_step > 0)):
+        raise ValueError("a feature does not change along the sequence: its slowness is undefined")
+    return 1.0 / mean_square_step
+
+
+@dataclass(frozen=True)
+class GradientSettings:
+    """Settings of :class:`GradientController` (SI units)."""
+
+    history: int = 12
+    """recent steps the local model of the features is fitted on"""
+    memory: float = 0.5
+    """metres of travel over which old samples fade out of the fit (exponential weight)"""
+    weave_deg: float = 35.0
+    """amplitude of the weave around the descent direction: consecutive moves are not collinear,
+    so the recent moves span the plane and the gradient is identifiable"""
+    weave_period: int = 10
+    """steps per weave cycle"""
+    speed: float = 0.3
+    """cruising speed (m/s)"""
+    slow_distance: float = 0.6
+    """estimated distance to the goal (m) below which the rover slows down"""
+    min_speed: float = 0.12
+    """slowest driving speed (m/s): the rover must keep moving to keep estimating the gradient"""
+    accel: float = 0.5
+    """largest change of the forward speed (m/s^2): speed reversals tip the rover and its
+    camera, which corrupts the features for several steps"""
+    turn_gain: float = 2.0
+    """yaw rate per radian of heading error (1/s)"""
+    stop_distance: float = 0.1
+    """the controller stops when the running mean of the cost falls below the cost of being this
+    far (m) from the goal, plus the noise floor of the cost"""
+    stop_window: int = 3
+    """steps in the running mean of the cost"""
+    give_up: float = 6.0
+    """metres travelled without lowering the best cost by ``progress`` before giving up"""
+    progress: float = 0.1
+    """relative decrease of the best cost that counts as progress"""
+    clearance: float = 0.55
+    """range (m, from the rover's centre) below which a ray direction counts as blocked"""
+
+
+class GradientController:
+    """Follow the gradient of the slow-feature distance to the goal (Metka et al., IROS 2017;
+    patent EP3367061), estimated online from the rover's own moves.
+
+    The cost is ``c = sum_i w_i (f_i - g_i)^2`` between the current features ``f`` and the goal's
+    ``g``. The controller keeps the features and odometry positions of its last ``history``
+    steps and fits the local linear model ``f(p) = a + J (p - p_now)`` by weighted least squares
+    (recent samples weigh more). Then ``grad c = 2 J^T W (a - g)``, and the Gauss-Newton step
+    ``d = -(J^T W J)^-1 J^T W (a - g)`` estimates the displacement to the goal: the rover drives
+    along ``d``, weaving around it (:attr:`GradientSettings.weave_deg`) so that consecutive moves
+    are not collinear. It stops when the running mean of the cost falls below the cost of being
+    ``stop_distance`` from the goal (from ``J``) plus the noise floor (the fit's residual), and
+    gives up (stops) after ``give_up`` metres without progress. The range sensor turns the
+    rover away from walls and obstacles: a blocked descent direction is replaced by the nearest
+    free one.
+
+    Args:
+        weights: ``(k,)`` feature weights (:func:`slowness_weights`).
+        range_angles: directions of the range sensor's rays relative to the heading (rad);
+            empty for none.
+        v_max: largest forward speed (m/s); w_max: largest yaw rate (rad/s); dt: step (s).
+        settings: :class:`GradientSettings`.
+        seed: seed of the weave's phase.
+    """
+
+    name = "gradient"
+
+    def __init__(
+        self,
+        weights: ArrayLike,
+        range_angles: ArrayLike = (),
+        v_max: float = 0.4,
+        w_max: float = 1.0,
+        dt: float = 0.1,
+        settings: GradientSettings | None = None,
+        seed: int = 0,
+    ) -> None:
+        self.weights = np.asarray(weights, dtype=np.float64)
+        if self.weights.ndim != 1 or np.any(~(self.weights >= 0)):
+            raise ValueError(f"weights must be (k,) non-negative numbers, got {weights!r}")
+        self.range_angles = np.asarray(range_angles, dtype=np.float64)
+        self.v_max, self.w_max, self.dt = float(v_max), float(w_max), float(dt)
+        self.settings = GradientSettings() if settings is None else settings
+        self.rng = np.random.default_rng(seed)
+
+    @classmethod
+    def for_env(cls, env: Any, weights: ArrayLike, **kwargs: Any) -> GradientController:
+        """A controller with the speed limits, step and range sensor of a navigation env."""
+        u = env.unwrapped
+        return cls(weights, u.range_angles, u.v_max, u.w_max, u.dt, **kwargs)
+
+    # -- episode --------------------------------------------------------------------------------
+
+    def reset(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> None:
+        self._samples: deque[tuple[NDArray, NDArray]] = deque(maxlen=self.settings.history)
+        self._costs: deque[float] = deque(maxlen=self.settings.stop_window)
+        self._travelled = 0.0
+        self._best = math.inf
+        self._best_at = 0.0
+        self._v = 0.0
+        self._step = 0
+        self._phase = float(self.rng.uniform(0, math.tau))
+        self._last_position: NDArray | None = None
+        self.estimate: dict[str, float] = {}
+
+    def _cost(self, f: NDArray, g: NDArray) -> float:
+        return float(np.sum(self.weights * (f - g) ** 2))
+
+    def _fit(self, position: NDArray) -> tuple[NDArray, NDArray, float] | None:
+        """``(a, J, residual cost)`` of the local linear model, or None while the recent moves do
+        not span the plane."""
+        s = self.settings
+        p = np.array([q for q, _ in self._samples]) - position
+        f = np.array([v for _, v in self._samples])
+        if len(p) < 4:
+            return None
+        # fade samples by the distance travelled since them (cumulative path, newest last)
+        steps = np.r_[np.linalg.norm(np.diff(p, axis=0), axis=1), 0.0]
+        behind = np.cumsum(steps[::-1])[::-1] - steps
+        sw = np.sqrt(np.exp(-behind / s.memory))
+        design = np.column_stack([np.ones(len(p)), p]) * sw[:, None]
+        spread = np.linalg.svd(design[:, 1:], compute_uv=False)
+        if spread[-1] < 0.02:  # the moves span less than a couple of cm across
+            return None
+        coef, *_ = np.linalg.lstsq(design, f * sw[:, None], rcond=None)
+        residual = f * sw[:, None] - design @ coef
+        dof = max(len(p) - 3, 1)
+        noise = float(np.sum(self.weights * residual**2) / dof)
+        return coef[0], coef[1:].T, noise
+
+    def _blocked(self, ranges: NDArray, heading: float) -> float:
+        """The free direction (relative to the rover) nearest to ``heading``."""
+        if ranges.size == 0:
+            return heading
+        free = ranges > self.settings.clearance
+        if free[np.argmin(np.abs([_wrap(a - heading) for a in self.range_angles]))]:
+            return heading
+        if not free.any():
+            # boxed in ahead: turn towards the side with more room
+            return math.copysign(math.pi / 2, float(ranges[-1] - ranges[0]) or 1.0)
+        options = self.range_angles[free]
+        return float(options[np.argmin(np.abs([_wrap(a - heading) for a in options]))])
+
+    def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]:
+        s = self.settings
+        f = np.asarray(obs["features"], dtype=np.float64)
+        g = np.asarray(obs["goal_features"], dtype=np.float64)
+        x, y, yaw = (float(v) for v in info["odometry"])
+        position = np.array([x, y])
+        if self._last_position is not None:
+            self._travelled += float(np.linalg.norm(position - self._last_position))
+        self._last_position = position
+        self._samples.append((position, f))
+        self._step += 1
+
+        cost = self._cost(f, g)
+        self._costs.append(cost)
+        if cost < self._best * (1 - s.progress):
+            self._best, self._best_at = cost, self._travelled
+        if self._travelled - self._best_at > s.give_up:
+            return self._stop()
+
+        fit = self._fit(position)
+        weave = math.radians(s.weave_deg) * math.sin(
+            self._phase + math.tau * self._step / s.weave_period
+        )
+        if fit is None:
+            # not enough spread yet: drive a curve to get it
+            return self._drive(s.min_speed * 1.5, self.w_max * 0.6, info)
+        a, jac, noise = fit
+        metric = jac.T @ (self.weights[:, None] * jac)  # (2, 2) J^T W J
+        gradient = jac.T @ (self.weights * (a - g))
+        try:
+            step = -np.linalg.solve(metric + 1e-9 * np.trace(metric) * np.eye(2), gradient)
+        except np.linalg.LinAlgError:
+            step = -gradient
+        distance = float(np.linalg.norm(step))
+        stop_cost = s.stop_distance**2 * float(np.trace(metric)) / 2 + noise
+        self.estimate = {"cost": cost, "distance": distance, "stop_cost": stop_cost}
+        if len(self._costs) == s.stop_window and np.mean(self._costs) < stop_cost:
+            return self._stop()
+
+        heading = _wrap(math.atan2(step[1], step[0]) - yaw + weave)
+        heading = self._blocked(np.asarray(info.get("range", ()), dtype=np.float64), heading)
+        scale = min(1.0, distance / s.slow_distance)
+        speed = max(s.min_speed, s.speed * scale) * max(math.cos(heading), 0.0)
+        return self._drive(speed, s.turn_gain * heading, info)
+
+    def _drive(self, v: float, w: float, info: Mapping[str, Any]) -> NDArray[np.float32]:
+        limit = self.settings.accel * self.dt
+        v = min(max(v, self._v - limit, 0.0), self._v + limit, self.v_max)
+        self._v = v
+        w = min(max(w, -self.w_max), self.w_max)
+        return np.array([v, w, -1.0], dtype=np.float32)
+
+    def _stop(self) -> NDArray[np.float32]:
+        return np.array([0.0, 0.0, 1.0], dtype=np.float32)
+
+
+class OracleController:
+    """Upper bound: follows the geodesic shortest path with the ground-truth pose (pure pursuit)
+    and stops at the goal. It reads ``info["x"]``, ``"y"``, ``"yaw"`` and ``"goal"``, and the
+    occupancy grid: a map and ground truth no real rover has.
+
+    Args:
+        occupancy: the env's :class:`~sfa_gym.navigation.occupancy.OccupancyGrid`.
+        v_max, w_max: speed limits; lookahead: pure-pursuit lookahead (m);
+        stop_radius: distance to the goal (m) at which it stops.
+    """
+
+    name = "oracle"
+
+    def __init__(
+        self,
+        occupancy: Any,
+        v_max: float = 0.4,
+        w_max: float = 1.0,
+        lookahead: float = 0.3,
+        stop_radius: float = 0.1,
+    ) -> None:
+        self.occupancy = occupancy
+        self.v_max, self.w_max = float(v_max), float(w_max)
+        self.lookahead, self.stop_radius = float(lookahead), float(stop_radius)
+
+    @classmethod
+    def for_env(cls, env: Any, **kwargs: Any) -> OracleController:
+        u = env.unwrapped
+        return cls(u.occupancy, u.v_max, u.w_max, **kwargs)
+
+    def reset(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> None:
+        goal = np.asarray(info["goal"], dtype=np.float64)[:2]
+        start = np.array([info["x"], info["y"]])
+        self._path = self.occupancy.geodesic(goal).path(start)
+        self._goal = goal
+
+    def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]:
+        here = np.array([info["x"], info["y"]])
+        if np.linalg.norm(here - self._goal) <= self.stop_radius:
+            return np.array([0.0, 0.0, 1.0], dtype=np.float32)
+        target = _lookahead_point(self._path, here, self.lookahead)
+        heading = _wrap(math.atan2(*(target - here)[::-1]) - float(info["yaw"]))
+        remaining = float(np.linalg.norm(self._goal - here))
+        v = min(self.v_max, max(0.1, remaining)) * max(math.cos(heading), 0.0) ** 2
+        w = min(max(2.0 * heading, -self.w_max), self.w_max)
+        return np.array([v, w, -1.0], dtype=np.float32)
+
+
+def _lookahead_point(path: NDArray[np.float64], here: NDArray[np.float64], ahead: float):
+    """The point ``ahead`` metres along the polyline ``path (m, 2)`` beyond the point of the path
+    nearest to ``here`` (the goal, the path's end, if that is closer)."""
+    starts, ends = path[:-1], path[1:]
+    seg = ends - starts
+    length = np.linalg.norm(seg, axis=1)
+    t = np.clip(np.einsum("ij,ij->i", here - starts, seg) / np.maximum(length, 1e-12) ** 2, 0, 1)
+    gap = np.linalg.norm(starts + t[:, None] * seg - here, axis=1)
+    k = int(np.argmin(gap))
+    along = np.r_[0.0, np.cumsum(length)]
+    wanted = along[k] + t[k] * length[k] + ahead
+    if wanted >= along[-1]:
+        return path[-1]
+    m = int(np.searchsorted(along, wanted, side="right")) - 1
+    return path[m] + (wanted - along[m]) / max(length[m], 1e-12) * seg[m]
+
+
+class RandomController:
+    """Floor: uniform random speeds, and a stop with probability ``stop_probability`` per step."""
+
+    name = "random"
+
+    def __init__(
+        self, v_max: float = 0.4, w_max: float = 1.0, stop_probability: float = 0.01, seed: int = 0
+    ) -> None:
+        self.v_max, self.w_max = float(v_max), float(w_max)
+        self.stop_probability = float(stop_probability)
+        self.rng = np.random.default_rng(seed)
+
+    @classmethod
+    def for_env(cls, env: Any, **kwargs: Any) -> RandomController:
+        u = env.unwrapped
+        return cls(u.v_max, u.w_max, **kwargs)
+
+    def reset(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> None:
+        pass
+
+    def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]:
+        v, w = self.rng.uniform([-self.v_max, -self.w_max], [self.v_max, self.w_max])
+        stop = 1.0 if self.rng.random() < self.stop_probability else -1.0
+        return np.array([v, w, stop], dtype=np.float32)
