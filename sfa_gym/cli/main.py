@@ -6,6 +6,8 @@
   (:class:`~sfa_gym.cli.localize.Localize`).
 - ``sfa-gym localize-run``: the paper's outdoor protocol on driven runs
   (:class:`~sfa_gym.cli.localize.LocalizeRun`).
+- ``sfa-gym navigate``: image-goal navigation with the slow-feature-gradient controller
+  (:class:`~sfa_gym.cli.navigate.Navigate`).
 
 Each option is a field of a settings dataclass and its help text is the field's docstring;
 values are checked by the dataclass's ``validate()``, before anything is written. A bad value
@@ -21,6 +23,7 @@ from typing import Annotated
 import tyro
 
 from sfa_gym.cli.localize import Localize, LocalizeRun
+from sfa_gym.cli.navigate import Navigate
 from sfa_gym.cli.record import Record
 from sfa_gym.localization.methods import PluginError
 
@@ -30,16 +33,17 @@ Command = (
     Annotated[Record, tyro.conf.subcommand("record")]
     | Annotated[Localize, tyro.conf.subcommand("localize")]
     | Annotated[LocalizeRun, tyro.conf.subcommand("localize-run")]
+    | Annotated[Navigate, tyro.conf.subcommand("navigate")]
 )
 """The subcommands, one settings dataclass each."""
 
 DESCRIPTION = (
-    "Visual self-localization with Slow Feature Analysis: record runs of the rover and run the "
-    "paper's localization protocols."
+    "Visual self-localization and navigation with Slow Feature Analysis: record runs of the "
+    "rover, run the paper's localization protocols and the navigation protocol."
 )
 
 
-def parse(argv: Sequence[str] | None = None) -> Record | Localize | LocalizeRun:
+def parse(argv: Sequence[str] | None = None) -> Record | Localize | LocalizeRun | Navigate:
     """The command and its settings from ``argv`` (default: ``sys.argv[1:]``); ``--help`` and
     unparsable options exit as argparse does."""
     return tyro.cli(

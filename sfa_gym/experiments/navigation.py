@@ -1,0 +1,275 @@
+"""The navigation protocol: train a feature method without labels on the world, build its feature
+field, and run navigation controllers on fixed episode seeds.
+
+1. Training run: panoramas on an ``n x n`` grid over the free space, visited in Hilbert-curve
+   order (the order shapes the slow features, as in the localization protocol); hierarchical SFA
+   is fitted on all their simulated rotations.
+2. Feature weights: the slowness of each feature along that training sequence
+   (:func:`~sfa_gym.navigation.controllers.slowness_weights`): unsupervised, no positions.
+3. Feature field (:class:`~sfa_gym.navigation.field.FeatureField`): the rotation-averaged
+   features on a grid of ``field_spacing``; the navigation env then steps physics only.
+4. Controllers on ``episodes`` seeds: the slow-feature-gradient controller on each feature
+   method, the oracle (ground truth and map: the upper bound) and the random policy (the floor);
+   optionally some episodes rendered, with features computed from the panoramas.
+
+Everything is cached in the output folder (the model, the fields), so a second run with other
+controllers or more episodes reuses it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sfa_gym._checks import check_int, check_positive, check_positive_int
+from sfa_gym.experiments.report import check_out_folder
+from sfa_gym.experiments.settings import EnvId, SFASettings, check_env_id
+
+__all__ = ["NavigationExperiment", "format_navigation_table", "run_navigation_experiment"]
+
+CONTROLLERS = ("gradient", "oracle", "random")
+
+
+@dataclass(frozen=True)
+class NavigationExperiment:
+    """Settings of the navigation protocol."""
+
+    env_id: EnvId = "sfa_gym/OmniRoverNav-v0"
+    """navigation env (sfa_gym/OmniRoverNav-v0, ...Obstacles-v0, ...Maze-v0)"""
+    world_seed: int = 0
+    """seed of the world's procedural variation"""
+    train_grid: int = 30
+    """the training run visits an n x n grid of positions (free ones only) in Hilbert order"""
+    field_spacing: float = 0.1
+    """node spacing of the feature fields (m)"""
+    episodes: int = 100
+    """episodes per controller, on the fields"""
+    episode_seed: int = 1000
+    """seed of the first episode; episode i uses episode_seed + i"""
+    rendered_episodes: int = 0
+    """episodes of the gradient controller on SFA that render panoramas (slow: ~0.1 s a step)"""
+    controllers: tuple[str, ...] = CONTROLLERS
+    """controllers to run: gradient (on every feature method), oracle, random"""
+    sfa: SFASettings = SFASettings(node_dim=16, n_outputs=8)
+    """the hierarchical SFA network"""
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first bad setting."""
+        check_env_id("env_id", self.env_id)
+        check_int("world_seed", self.world_seed)
+        check_positive_int("train_grid", self.train_grid)
+        if self.train_grid < 4:
+            raise ValueError(f"train_grid must be at least 4, got {self.train_grid}")
+        check_positive("field_spacing", self.field_spacing)
+        check_positive_int("episodes", self.episodes)
+        check_int("episode_seed", self.episode_seed)
+        check_int("rendered_episodes", self.rendered_episodes)
+        unknown = sorted(set(self.controllers) - set(CONTROLLERS))
+        if unknown or not self.controllers:
+            raise ValueError(f"controllers must be among {list(CONTROLLERS)}, got {unknown}")
+        self.sfa.validate()
+
+
+def _training_panoramas(
+    config: NavigationExperiment, nav: Any, camera: Any, progress: bool
+) -> NDArray[np.uint8]:
+    """Panoramas of the free grid positions in Hilbert order."""
+    from tqdm import tqdm
+
+    from sfa_gym.recording.ordering import grid_order
+
+    n = config.train_grid
+    positions = nav.grid_positions(n)
+    cells = np.stack(np.unravel_index(np.arange(n * n), (n, n)), axis=1)[:, ::-1]  # (i=x, j=y)
+    order = grid_order(cells, "hilbert")
+    positions = positions[order]
+    positions = positions[nav.occupancy.is_free(positions)]
+    return np.stack(
+        [
+            camera.reset(options={"pose": (x, y, 0.0)})[0]
+            for x, y in tqdm(positions, desc="training run", disable=not progress)
+        ]
+    )
+
+
+def _fit_sfa(
+    config: NavigationExperiment, panoramas: NDArray[np.uint8], path: Path, progress: bool
+):
+    from sfa_gym.sfa.io import load_model, save_model
+
+    if path.exists():
+        return load_model(path)
+    _, h, w, _ = panoramas.shape
+    model = config.sfa.make_model(h, w, progress).fit_rotations(panoramas, step=5)
+    save_model(model, path)
+    return model
+
+
+def _field(
+    camera: Any,
+    nav: Any,
+    model: Any,
+    path: Path,
+    config: NavigationExperiment,
+    name: str,
+    progress: bool,
+):
+    from sfa_gym.navigation.field import FeatureField
+
+    if path.exists():
+        return FeatureField.load(path)
+    field = FeatureField.build(
+        camera,
+        model,
+        spacing=config.field_spacing,
+        free=nav.occupancy.is_free,
+        progress=progress,
+        model_info={"method": name},
+    )
+    field.save(path)
+    return field
+
+
+def _episode_record(episode: dict[str, Any]) -> dict[str, Any]:
+    return {**episode, "path": np.round(episode["path"], 3).tolist()}
+
+
+def run_navigation_experiment(
+    config: NavigationExperiment,
+    out_dir: str | Path,
+    methods: list[tuple[Any, Any]] | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Run the protocol (module docstring); write ``results.json`` and figures to ``out_dir``.
+
+    ``methods`` are extra feature methods (plug-ins, as for localization) that get the gradient
+    controller beside hierarchical SFA.
+    """
+    import gymnasium as gym
+    import matplotlib.pyplot as plt
+
+    from sfa_gym._files import write_json_atomic
+    from sfa_gym.experiments.common import fit_method
+    from sfa_gym.features import rotation_averaged_features
+    from sfa_gym.navigation.controllers import (
+        GradientController,
+        OracleController,
+        RandomController,
+        slowness_weights,
+    )
+    from sfa_gym.navigation.evaluate import run_episodes, summarize
+    from sfa_gym.navigation.plots import paths
+    from sfa_gym.rotation import Rotation
+    from sfa_gym.sim.env import OmniRoverEnv
+    from sfa_gym.wrappers import GoalFeatureObservation
+
+    config.validate()
+    out = Path(out_dir)
+    check_out_folder(out)
+    out.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    nav = gym.make(config.env_id, world_seed=config.world_seed).unwrapped
+    seeds = range(config.episode_seed, config.episode_seed + config.episodes)
+
+    # renders the training run and the fields (the navigation env has no pose option)
+    camera = OmniRoverEnv(nav.world, nav.world_seed, nav.panorama)
+    train = _training_panoramas(config, nav, camera, progress)
+    models: dict[str, Any] = {"sfa": _fit_sfa(config, train, out / "sfa_model.npz", progress)}
+    for method, _ in methods or []:
+        models[method.name] = fit_method(method, train, Rotation())
+
+    results: dict[str, Any] = {
+        "protocol": "navigation",
+        "settings": dataclasses.asdict(config),
+        "training_positions": len(train),
+        "controllers": {},
+    }
+    fields: dict[str, Any] = {}
+    for name, model in models.items():
+        fields[name] = _field(camera, nav, model, out / f"field_{name}.npz", config, name, progress)
+        sequence = rotation_averaged_features(model, train, step=1)
+        weights = slowness_weights(sequence)
+        env = gym.make(config.env_id, world_seed=config.world_seed, feature_field=fields[name])
+        if "gradient" in config.controllers:
+            controller = GradientController.for_env(env, weights)
+            episodes = run_episodes(env, controller, seeds, progress, f"gradient on {name}")
+            results["controllers"][f"gradient/{name}"] = {
+                **summarize(episodes),
+                "episodes": [_episode_record(e) for e in episodes],
+            }
+            fig, _ = paths(episodes, nav.occupancy, f"gradient on {name}:")
+            fig.savefig(out / f"paths_gradient_{name}.png", dpi=110, bbox_inches="tight")
+            plt.close(fig)
+            _landscape_figure(fields[name], weights, nav, out / f"cost_landscape_{name}.png", name)
+        if name == "sfa":
+            for kind, make in (("oracle", OracleController), ("random", RandomController)):
+                if kind in config.controllers:
+                    episodes = run_episodes(env, make.for_env(env), seeds, progress, kind)
+                    results["controllers"][kind] = {
+                        **summarize(episodes),
+                        "episodes": [_episode_record(e) for e in episodes],
+                    }
+        env.close()
+    camera.close()
+
+    if config.rendered_episodes > 0:
+        env = GoalFeatureObservation(
+            gym.make(config.env_id, world_seed=config.world_seed), models["sfa"]
+        )
+        weights = slowness_weights(rotation_averaged_features(models["sfa"], train, step=1))
+        controller = GradientController.for_env(env, weights)
+        rendered = range(config.episode_seed, config.episode_seed + config.rendered_episodes)
+        episodes = run_episodes(env, controller, rendered, progress, "gradient on sfa, rendered")
+        results["controllers"]["gradient/sfa/rendered"] = {
+            **summarize(episodes),
+            "episodes": [_episode_record(e) for e in episodes],
+        }
+        env.close()
+
+    results["seconds"] = round(time.perf_counter() - started, 1)
+    write_json_atomic(out / "results.json", results)
+    return results
+
+
+def _landscape_figure(field: Any, weights: NDArray, nav: Any, path: Path, name: str) -> None:
+    """The cost of a goal near a corner of the free space over the arena."""
+    import matplotlib.pyplot as plt
+
+    from sfa_gym.navigation.plots import cost_landscape
+
+    gx, gy = np.meshgrid(field.xs, field.ys)
+    nodes = np.stack([gx.ravel(), gy.ravel()], axis=1)
+    free = nav.occupancy.is_free(nodes)
+    xmin, xmax, ymin, ymax = nav.arena_bounds
+    goal = np.array([xmin + 0.25 * (xmax - xmin), ymin + 0.25 * (ymax - ymin)])
+    values = field(nodes)
+    cost = np.sum(weights * (values - field(goal[None])[0]) ** 2, axis=1)
+    cost[~free] = math.nan
+    fig, _ = cost_landscape(nodes, cost, goal, title=f"cost of a goal, {name} features")
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def format_navigation_table(results: dict[str, Any]) -> str:
+    """Success and SPL (mean and 95 % interval) per controller, all pairs and interior pairs."""
+    lines = [
+        "| controller | success, all | SPL, all | success, interior | SPL, interior | episodes |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, entry in results["controllers"].items():
+        cells = []
+        for group in ("all", "interior"):
+            for key in ("success", "spl"):
+                score = entry[group][key]
+                lo, hi = score["ci95"]
+                cells.append(f"{score['mean']:.2f} ({lo:.2f}-{hi:.2f})")
+        episodes = f"{entry['all']['episodes']} ({entry['interior']['episodes']} interior)"
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {episodes} |")
+    return "\n".join(lines)
