@@ -12,7 +12,9 @@ import pytest
 
 from sfa_gym.sim import gl
 from sfa_gym.sim.worlds import (
+    InteriorWallsSpec,
     ObstaclesSpec,
+    WorldLayout,
     available_worlds,
     build_world,
     load_world_spec,
@@ -179,3 +181,167 @@ def test_any_world_name_gives_a_valid_mjcf(spec, name):
 def test_world_names_that_xml_cannot_carry_are_refused(spec_dict, name):
     with pytest.raises(ValueError, match="world name"):
         world_spec_from_dict({**spec_dict, "name": name})
+
+
+# -- interior walls and the navigation worlds -------------------------------------------------
+
+
+def test_navigation_worlds_are_shipped_with_their_obstacles_and_walls():
+    assert {"paper_sim_obstacles", "paper_sim_maze"} <= set(available_worlds())
+    paper = load_world_spec("paper_sim")
+    obstacles, maze = load_world_spec("paper_sim_obstacles"), load_world_spec("paper_sim_maze")
+    for spec in (obstacles, maze):  # the paper_sim world's appearance
+        assert (spec.arena, spec.walls, spec.landmarks, spec.lights) == (
+            paper.arena,
+            paper.walls,
+            paper.landmarks,
+            paper.lights,
+        )
+    assert paper.interior_walls == InteriorWallsSpec()
+    assert obstacles.obstacles.count == 6 and obstacles.obstacles.min_gap >= 1.0
+    assert not obstacles.interior_walls.segments
+    assert maze.obstacles.count == 0
+    walls = maze.interior_walls
+    assert walls.height == paper.arena.wall_height
+    # a plus through the centre whose arms stop >= 1.2 m short of the walls' inner faces
+    inner = paper.arena.size[0] / 2
+    ends = np.abs(np.array(walls.segments)).reshape(-1, 2)
+    assert inner - (ends.max() + walls.thickness / 2) >= 1.2
+    layout = build_world(maze, 0).layout
+    assert layout.clearance(np.array([[0.0, 0.0]]))[0] < 0  # the centre lies in a wall
+
+
+@pytest.mark.parametrize(
+    "segment", [[-1.0, -1.0, 1.0, 1.0], [3.0, 0.0, -3.5, 0.0], [0.0, -3.5, 0.0, 3.5]]
+)
+def test_interior_walls_stand_in_the_model_with_the_arena_walls_contacts(spec, segment):
+    walled = dataclasses.replace(
+        spec, interior_walls=InteriorWallsSpec(segments=(tuple(segment),), panel_length=2.0)
+    )
+    world = build_world(walled, 2)
+    model = mujoco.MjModel.from_xml_string(world.mjcf)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    panels = _geoms(model, "iwall")
+    length = math.dist(segment[:2], segment[2:])
+    assert len(panels) == math.ceil(length / 2.0)
+    arena_wall = _geoms(model, "wall")[0]
+    half = walled.interior_walls.thickness / 2
+    for g in panels:
+        assert model.geom_contype[g] == model.geom_contype[arena_wall]
+        assert model.geom_conaffinity[g] == model.geom_conaffinity[arena_wall]
+        # the MJCF holds 4 decimals
+        size = [half, length / len(panels) / 2, 0.4]
+        np.testing.assert_allclose(model.geom_size[g], size, atol=1e-4)
+        # every panel lies on the segment, its long axis along it
+        x, y, z = data.geom_xpos[g]
+        assert world.layout.clearance(np.array([[x, y]]))[0] == pytest.approx(-half, abs=1e-4)
+        along = data.geom_xmat[g].reshape(3, 3)[:, 1]
+        direction = np.subtract(segment[2:], segment[:2]) / length
+        assert abs(along[:2] @ direction) == pytest.approx(1.0, abs=1e-6)
+    assert world.layout.walls == ((*segment, half),)
+
+
+def test_interior_walls_are_drawn_last_and_leave_the_rest_of_the_world_as_it_was(spec):
+    walled = dataclasses.replace(
+        spec, interior_walls=InteriorWallsSpec(segments=((-2.0, 0.0, 2.0, 0.0),))
+    )
+    for seed in (0, 5):
+        before = build_world(spec, seed).mjcf.splitlines()
+        after = build_world(walled, seed).mjcf.splitlines()
+        assert after != before
+        assert build_world(walled, seed).mjcf == "\n".join(after)  # deterministic
+        new = {line for line in after if "iwall" in line}
+        names = {line.split('material="')[1].split('"')[0] for line in new}
+        new |= {line for line in after for n in names if f'"{n}"' in line or f"tex_{n}" in line}
+        assert len(new) == 3 * 3  # 3 panels: texture, material, geom each
+        assert [line for line in after if line not in new] == before
+
+
+def test_obstacles_keep_their_gap_from_interior_walls(spec):
+    walls = InteriorWallsSpec(segments=((-2.0, 0.0, 2.0, 0.0), (0.0, 0.05, 0.0, 2.0)))
+    obstacles = ObstaclesSpec(count=4, min_gap=0.6)
+    walled = dataclasses.replace(spec, interior_walls=walls, obstacles=obstacles)
+    for seed in range(3):
+        layout = build_world(walled, seed).layout
+        assert len(layout.obstacles) == 4
+        walls_only = dataclasses.replace(layout, obstacles=())
+        for x, y, r in layout.obstacles:
+            assert walls_only.clearance(np.array([[x, y]]))[0] >= r + obstacles.min_gap - 1e-9
+
+
+def test_layout_clearance_known_answers():
+    layout = WorldLayout(
+        bounds=(-3.0, 3.0, -3.0, 3.0),
+        obstacles=((2.0, 2.0, 0.5),),
+        landmarks=(),
+        walls=((-2.0, 0.0, 2.0, 0.0, 0.05),),
+    )
+    points = np.array([[0.0, 1.0], [3.0, 0.0], [-2.0, -0.5], [2.0, 1.0], [2.0, 2.0], [0.0, 0.0]])
+    np.testing.assert_allclose(
+        layout.clearance(points),
+        [0.95, 0.95, 0.45, min(0.5, 0.95), -0.5, -0.05],
+    )
+    # the arena's bounds do not count; nothing inside means infinitely far
+    empty = WorldLayout(bounds=(-3.0, 3.0, -3.0, 3.0), obstacles=(), landmarks=())
+    assert empty.walls == ()
+    assert np.all(np.isinf(empty.clearance(np.zeros((3, 2)))))
+    assert empty.clearance(np.zeros((0, 2))).shape == (0,)
+    with pytest.raises(ValueError, match=r"\(n, 2\)"):
+        layout.clearance(np.zeros(2))
+    with pytest.raises(ValueError, match="half_thickness"):
+        WorldLayout((-3.0, 3.0, -3.0, 3.0), (), (), walls=((0.0, 0.0, 1.0, 0.0, 0.0),))
+    with pytest.raises(ValueError, match="5 finite numbers"):
+        WorldLayout((-3.0, 3.0, -3.0, 3.0), (), (), walls=((0.0, 0.0, 1.0, 0.05),))
+
+
+def test_bad_interior_walls_name_the_problem(spec_dict):
+    def walls(**block):
+        return {**spec_dict, "interior_walls": {"segments": [[0.0, 0.0, 1.0, 0.0]], **block}}
+
+    with pytest.raises(ValueError, match=r"segments\[1\].*outside the arena.*3\.5"):
+        world_spec_from_dict(walls(segments=[[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 3.6, 0.0]]))
+    with pytest.raises(ValueError, match=r"segments\[0\] has zero length"):
+        world_spec_from_dict(walls(segments=[[1.0, 1.0, 1.0, 1.0]]))
+    with pytest.raises(ValueError, match=r"segments\[0\] must be finite"):
+        world_spec_from_dict(walls(segments=[[0.0, 0.0, float("nan"), 1.0]]))
+    with pytest.raises(ValueError, match=r"interior_walls\.segments\[0\] must have 4 entries"):
+        world_spec_from_dict(walls(segments=[[0.0, 0.0, 1.0]]))
+    with pytest.raises(ValueError, match="interior_walls thickness must be positive, got 0"):
+        world_spec_from_dict(walls(thickness=0.0))
+    with pytest.raises(ValueError, match="interior_walls height must be positive"):
+        world_spec_from_dict(walls(height=-0.8))
+    with pytest.raises(ValueError, match=r"interior_walls: unknown keys \['width'\]"):
+        world_spec_from_dict(walls(width=0.1))
+
+
+def test_the_rover_cannot_drive_through_an_interior_wall():
+    from sfa_gym.sim.camera import PanoramaSpec
+    from sfa_gym.sim.env import OmniRoverEnv
+
+    env = OmniRoverEnv(world="paper_sim_maze", panorama=PanoramaSpec(width=120, height=16))
+    # facing +y, 1 m below the wall along y = 0 (its face at y = -0.05): 0.4 m/s for 4 s would
+    # carry the rover to y = +0.6
+    _, info = env.reset(options={"pose": (1.0, -1.0, math.pi / 2)})
+    walls = set(_geoms(env.model, "iwall"))
+    touched = False
+    for _ in range(40):
+        _, _, _, _, info = env.step(np.array([0.4, 0.0], dtype=np.float32))
+        contacts = env.data.contact[: env.data.ncon]
+        touched |= any(g in walls for g in (*contacts.geom1, *contacts.geom2))
+    assert touched
+    # the front (chassis 0.25 m, wheels 0.244 m ahead of the centre) stops at the face
+    assert -0.40 < info["y"] < -0.25, info
+    env.close()
+
+
+def test_random_starts_keep_clear_of_interior_walls():
+    from sfa_gym.sim.camera import PanoramaSpec
+    from sfa_gym.sim.env import OmniRoverEnv
+
+    env = OmniRoverEnv(world="paper_sim_maze", panorama=PanoramaSpec(width=120, height=16))
+    for seed in range(8):
+        _, info = env.reset(seed=seed)
+        clearance = env.layout.clearance(np.array([[info["x"], info["y"]]]))[0]
+        assert clearance > env.rover.footprint_radius, (seed, info)
+    env.close()

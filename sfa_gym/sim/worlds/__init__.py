@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from sfa_gym.sim.worlds.build import MJCFParts, World, WorldLayout, build_world
 from sfa_gym.sim.worlds.spec import (
+    InteriorWallsSpec,
     ObstaclesSpec,
     WorldSpec,
     available_worlds,
@@ -12,6 +13,7 @@ from sfa_gym.sim.worlds.spec import (
 )
 
 __all__ = [
+    "InteriorWallsSpec",
     "MJCFParts",
     "ObstaclesSpec",
     "World",

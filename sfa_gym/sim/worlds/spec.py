@@ -250,9 +250,7 @@ class InteriorWallsSpec:
                 )
             x0, y0, x1, y1 = segment
             if math.hypot(x1 - x0, y1 - y0) < 1e-6:
-                raise ValueError(
-                    f"interior_walls segments[{i}] has zero length: {list(segment)}"
-                )
+                raise ValueError(f"interior_walls segments[{i}] has zero length: {list(segment)}")
 
 
 @dataclass(frozen=True)
