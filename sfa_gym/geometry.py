@@ -1,4 +1,5 @@
-"""Axis-aligned rectangles on the ground plane ``(xmin, xmax, ymin, ymax)``, metres."""
+"""Ground-plane geometry: axis-aligned rectangles ``(xmin, xmax, ymin, ymax)`` (metres) and
+headings (radians)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 Rectangle = tuple[float, float, float, float]
 """``(xmin, xmax, ymin, ymax)`` in metres, world frame."""
 
-__all__ = ["Rectangle", "check_rectangle", "in_rectangle", "grow_rectangle"]
+__all__ = ["Rectangle", "check_rectangle", "grow_rectangle", "in_rectangle", "wrap_angle"]
 
 
 def check_rectangle(name: str, rect: Any) -> Rectangle:
@@ -45,3 +46,8 @@ def grow_rectangle(rect: Rectangle, margin: float) -> Rectangle:
     """``rect`` enlarged by ``margin`` metres on every side."""
     x0, x1, y0, y1 = rect
     return x0 - margin, x1 + margin, y0 - margin, y1 + margin
+
+
+def wrap_angle(angle: float) -> float:
+    """Angle wrapped to ``[-pi, pi)`` (radians)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi

@@ -137,8 +137,14 @@ def _field(
     return field
 
 
-def _episode_record(episode: dict[str, Any]) -> dict[str, Any]:
-    return {**episode, "path": np.round(episode["path"], 3).tolist()}
+def _controller_entry(episodes: list[dict[str, Any]]) -> dict[str, Any]:
+    """A controller's scores and its episodes (paths rounded to mm) for ``results.json``."""
+    from sfa_gym.navigation.evaluate import summarize
+
+    return {
+        **summarize(episodes),
+        "episodes": [{**e, "path": np.round(e["path"], 3).tolist()} for e in episodes],
+    }
 
 
 def run_navigation_experiment(
@@ -164,7 +170,7 @@ def run_navigation_experiment(
         RandomController,
         slowness_weights,
     )
-    from sfa_gym.navigation.evaluate import run_episodes, summarize
+    from sfa_gym.navigation.evaluate import run_episodes
     from sfa_gym.navigation.plots import paths
     from sfa_gym.rotation import Rotation
     from sfa_gym.sim.env import OmniRoverEnv
@@ -191,31 +197,28 @@ def run_navigation_experiment(
         "training_positions": len(train),
         "controllers": {},
     }
-    fields: dict[str, Any] = {}
+    weights: dict[str, NDArray[np.float64]] = {}
     for name, model in models.items():
-        fields[name] = _field(camera, nav, model, out / f"field_{name}.npz", config, name, progress)
-        sequence = rotation_averaged_features(model, train, step=1)
-        weights = slowness_weights(sequence)
-        env = gym.make(config.env_id, world_seed=config.world_seed, feature_field=fields[name])
+        field = _field(camera, nav, model, out / f"field_{name}.npz", config, name, progress)
+        weights[name] = slowness_weights(rotation_averaged_features(model, train, step=1))
+        env = gym.make(config.env_id, world_seed=config.world_seed, feature_field=field)
+        runs: list[tuple[str, Any]] = []
         if "gradient" in config.controllers:
-            controller = GradientController.for_env(env, weights)
-            episodes = run_episodes(env, controller, seeds, progress, f"gradient on {name}")
-            results["controllers"][f"gradient/{name}"] = {
-                **summarize(episodes),
-                "episodes": [_episode_record(e) for e in episodes],
-            }
-            fig, _ = paths(episodes, nav.occupancy, f"gradient on {name}:")
-            fig.savefig(out / f"paths_gradient_{name}.png", dpi=110, bbox_inches="tight")
-            plt.close(fig)
-            _landscape_figure(fields[name], weights, nav, out / f"cost_landscape_{name}.png", name)
+            runs.append((f"gradient/{name}", GradientController.for_env(env, weights[name])))
+            _landscape_figure(field, weights[name], nav, out / f"cost_landscape_{name}.png", name)
         if name == "sfa":
-            for kind, make in (("oracle", OracleController), ("random", RandomController)):
-                if kind in config.controllers:
-                    episodes = run_episodes(env, make.for_env(env), seeds, progress, kind)
-                    results["controllers"][kind] = {
-                        **summarize(episodes),
-                        "episodes": [_episode_record(e) for e in episodes],
-                    }
+            runs += [
+                (kind, make.for_env(env))
+                for kind, make in (("oracle", OracleController), ("random", RandomController))
+                if kind in config.controllers
+            ]
+        for label, controller in runs:
+            episodes = run_episodes(env, controller, seeds, progress, label)
+            results["controllers"][label] = _controller_entry(episodes)
+            if label.startswith("gradient/"):
+                fig, _ = paths(episodes, nav.occupancy, f"gradient on {name}:")
+                fig.savefig(out / f"paths_gradient_{name}.png", dpi=110, bbox_inches="tight")
+                plt.close(fig)
         env.close()
     camera.close()
 
@@ -223,14 +226,10 @@ def run_navigation_experiment(
         env = GoalFeatureObservation(
             gym.make(config.env_id, world_seed=config.world_seed), models["sfa"]
         )
-        weights = slowness_weights(rotation_averaged_features(models["sfa"], train, step=1))
-        controller = GradientController.for_env(env, weights)
+        controller = GradientController.for_env(env, weights["sfa"])
         rendered = range(config.episode_seed, config.episode_seed + config.rendered_episodes)
         episodes = run_episodes(env, controller, rendered, progress, "gradient on sfa, rendered")
-        results["controllers"]["gradient/sfa/rendered"] = {
-            **summarize(episodes),
-            "episodes": [_episode_record(e) for e in episodes],
-        }
+        results["controllers"]["gradient/sfa/rendered"] = _controller_entry(episodes)
         env.close()
 
     results["seconds"] = round(time.perf_counter() - started, 1)

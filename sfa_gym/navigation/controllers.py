@@ -23,6 +23,9 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sfa_gym.geometry import wrap_angle
+from sfa_gym.recording.drivers import WaypointDriver
+
 __all__ = [
     "Controller",
     "GradientController",
@@ -41,10 +44,6 @@ class Controller(Protocol):
     def reset(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> None: ...
 
     def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]: ...
-
-
-def _wrap(angle: float) -> float:
-    return math.remainder(angle, math.tau)
 
 
 def slowness_weights(sequence: ArrayLike) -> NDArray[np.float64]:
@@ -199,13 +198,13 @@ class GradientController:
         if ranges.size == 0:
             return heading
         free = ranges > self.settings.clearance
-        if free[np.argmin(np.abs([_wrap(a - heading) for a in self.range_angles]))]:
+        if free[np.argmin(np.abs([wrap_angle(a - heading) for a in self.range_angles]))]:
             return heading
         if not free.any():
             # boxed in ahead: turn towards the side with more room
             return math.copysign(math.pi / 2, float(ranges[-1] - ranges[0]) or 1.0)
         options = self.range_angles[free]
-        return float(options[np.argmin(np.abs([_wrap(a - heading) for a in options]))])
+        return float(options[np.argmin(np.abs([wrap_angle(a - heading) for a in options]))])
 
     def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]:
         s = self.settings
@@ -246,7 +245,7 @@ class GradientController:
         if len(self._costs) == s.stop_window and np.mean(self._costs) < stop_cost:
             return self._stop()
 
-        heading = _wrap(math.atan2(step[1], step[0]) - yaw + weave)
+        heading = wrap_angle(math.atan2(step[1], step[0]) - yaw + weave)
         heading = self._blocked(np.asarray(info.get("range", ()), dtype=np.float64), heading)
         scale = min(1.0, distance / s.slow_distance)
         speed = max(s.min_speed, s.speed * scale) * max(math.cos(heading), 0.0)
@@ -264,13 +263,15 @@ class GradientController:
 
 
 class OracleController:
-    """Upper bound: follows the geodesic shortest path with the ground-truth pose (pure pursuit)
-    and stops at the goal. It reads ``info["x"]``, ``"y"``, ``"yaw"`` and ``"goal"``, and the
-    occupancy grid: a map and ground truth no real rover has.
+    """Upper bound: drives the geodesic shortest path with the ground-truth pose and stops at the
+    goal. It reads ``info["x"]``, ``"y"``, ``"yaw"`` and ``"goal"``, and the occupancy grid: a
+    map and ground truth no real rover has. The path's corners are the waypoints of a
+    :class:`~sfa_gym.recording.drivers.WaypointDriver`, the closed-loop steering the scripted
+    recordings use.
 
     Args:
         occupancy: the env's :class:`~sfa_gym.navigation.occupancy.OccupancyGrid`.
-        v_max, w_max: speed limits; lookahead: pure-pursuit lookahead (m);
+        v_max, w_max: speed limits; dt: control period (s);
         stop_radius: distance to the goal (m) at which it stops.
     """
 
@@ -281,51 +282,33 @@ class OracleController:
         occupancy: Any,
         v_max: float = 0.4,
         w_max: float = 1.0,
-        lookahead: float = 0.3,
+        dt: float = 0.1,
         stop_radius: float = 0.1,
     ) -> None:
         self.occupancy = occupancy
-        self.v_max, self.w_max = float(v_max), float(w_max)
-        self.lookahead, self.stop_radius = float(lookahead), float(stop_radius)
+        self.v_max, self.w_max, self.dt = float(v_max), float(w_max), float(dt)
+        self.stop_radius = float(stop_radius)
 
     @classmethod
     def for_env(cls, env: Any, **kwargs: Any) -> OracleController:
         u = env.unwrapped
-        return cls(u.occupancy, u.v_max, u.w_max, **kwargs)
+        return cls(u.occupancy, u.v_max, u.w_max, u.dt, **kwargs)
 
     def reset(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> None:
-        goal = np.asarray(info["goal"], dtype=np.float64)[:2]
-        start = np.array([info["x"], info["y"]])
-        self._path = self.occupancy.geodesic(goal).path(start)
-        self._goal = goal
+        self._goal = np.asarray(info["goal"], dtype=np.float64)[:2]
+        path = self.occupancy.geodesic(self._goal).path(np.array([info["x"], info["y"]]))
+        self._driver = WaypointDriver(
+            [tuple(p) for p in path], speed=self.v_max, turn_rate=self.w_max,
+            tolerance=self.stop_radius,
+        )  # fmt: skip
+        self._driver.reset(self.occupancy.bounds, dt=self.dt)
 
     def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]:
         here = np.array([info["x"], info["y"]])
-        if np.linalg.norm(here - self._goal) <= self.stop_radius:
+        if self._driver.done or np.linalg.norm(here - self._goal) <= self.stop_radius:
             return np.array([0.0, 0.0, 1.0], dtype=np.float32)
-        target = _lookahead_point(self._path, here, self.lookahead)
-        heading = _wrap(math.atan2(*(target - here)[::-1]) - float(info["yaw"]))
-        remaining = float(np.linalg.norm(self._goal - here))
-        v = min(self.v_max, max(0.1, remaining)) * max(math.cos(heading), 0.0) ** 2
-        w = min(max(2.0 * heading, -self.w_max), self.w_max)
+        v, w = self._driver(info)
         return np.array([v, w, -1.0], dtype=np.float32)
-
-
-def _lookahead_point(path: NDArray[np.float64], here: NDArray[np.float64], ahead: float):
-    """The point ``ahead`` metres along the polyline ``path (m, 2)`` beyond the point of the path
-    nearest to ``here`` (the goal, the path's end, if that is closer)."""
-    starts, ends = path[:-1], path[1:]
-    seg = ends - starts
-    length = np.linalg.norm(seg, axis=1)
-    t = np.clip(np.einsum("ij,ij->i", here - starts, seg) / np.maximum(length, 1e-12) ** 2, 0, 1)
-    gap = np.linalg.norm(starts + t[:, None] * seg - here, axis=1)
-    k = int(np.argmin(gap))
-    along = np.r_[0.0, np.cumsum(length)]
-    wanted = along[k] + t[k] * length[k] + ahead
-    if wanted >= along[-1]:
-        return path[-1]
-    m = int(np.searchsorted(along, wanted, side="right")) - 1
-    return path[m] + (wanted - along[m]) / max(length[m], 1e-12) * seg[m]
 
 
 class RandomController:

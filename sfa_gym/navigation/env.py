@@ -306,17 +306,15 @@ class OmniRoverNavEnv(OmniRoverEnv):
             f"in {_ATTEMPTS} attempts; the free space of this world is too small for it"
         )
 
-    def _geodesic_distance(self) -> float:
-        x, y, _ = self._pose()
-        return float(self._goal_geodesic.distance(np.array([[x, y]]))[0])
-
-    def _observation(self, panorama: NDArray[np.uint8] | None) -> dict[str, NDArray]:
+    def _observation(
+        self, panorama: NDArray[np.uint8] | None, x: float, y: float
+    ) -> dict[str, NDArray]:
+        """The observation at position ``(x, y)``: the rendered ``panorama``, or the field."""
         if self.feature_field is None:
             # copies: users keep observations, and the goal's stays the same all episode
             return {"panorama": panorama, "goal": self._goal_panorama.copy()}
-        x, y, _ = self._pose()
         return {
-            "features": self.feature_field(np.array([[x, y]]))[0],
+            "features": self.feature_field.at(x, y),
             "goal_features": self._goal_features.copy(),
         }
 
@@ -373,7 +371,7 @@ class OmniRoverNavEnv(OmniRoverEnv):
         self._success = False
         self._collisions = 0
         self._was_touching = self._touching()
-        return self._observation(panorama), self._nav_info()
+        return self._observation(panorama, *self._start[:2]), self._nav_info()
 
     def step(
         self, action: NDArray[np.float32]
@@ -398,7 +396,8 @@ class OmniRoverNavEnv(OmniRoverEnv):
         touching = self._touching()
         self._collisions += int(touching and not self._was_touching)
         self._was_touching = touching
-        previous, self._distance = self._distance, self._geodesic_distance()
+        previous = self._distance
+        self._distance = float(self._goal_geodesic.distance(np.array([[x, y]]))[0])
         arrived = math.hypot(x - self._goal[0], y - self._goal[1]) <= self.success_radius
         terminated = bool(a[2] > 0) if self.stop_action else arrived
         self._success = terminated and arrived
@@ -410,4 +409,5 @@ class OmniRoverNavEnv(OmniRoverEnv):
         if self.feature_field is None:
             gl.check_usable()
             panorama = self._camera.render(self.data)
-        return self._observation(panorama), float(reward), terminated, False, self._nav_info()
+        obs = self._observation(panorama, x, y)
+        return obs, float(reward), terminated, False, self._nav_info()

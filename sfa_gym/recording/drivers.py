@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 
 from sfa_gym._checks import check_finite, check_positive, is_number
 from sfa_gym._types import Pose
-from sfa_gym.geometry import Rectangle, check_rectangle, grow_rectangle
+from sfa_gym.geometry import Rectangle, check_rectangle, grow_rectangle, wrap_angle
 from sfa_gym.recording.ordering import grid_order
 
 __all__ = [
@@ -56,11 +56,6 @@ __all__ = [
 
 Bounds = Rectangle
 """Drivable area ``(xmin, xmax, ymin, ymax)`` in metres."""
-
-
-def _wrap(angle: float) -> float:
-    """Angle wrapped to ``[-pi, pi)``."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def env_attribute(env: Any, name: str) -> Any:
@@ -277,7 +272,7 @@ class WaypointDriver(Driver):
 
     def _spin(self, segment: Spin, yaw: float) -> NDArray[np.float32] | None:
         if self._last_yaw is not None:
-            self._spun += _wrap(yaw - self._last_yaw)
+            self._spun += wrap_angle(yaw - self._last_yaw)
         self._last_yaw = yaw
         remaining = abs(segment.angle) - math.copysign(1.0, segment.angle) * self._spun
         if remaining <= 0.05:
@@ -294,7 +289,7 @@ class WaypointDriver(Driver):
             ox, oy = self._origin
             if dx * (segment.x - ox) + dy * (segment.y - oy) < 0.0:
                 return None  # passed it
-        error = _wrap(math.atan2(dy, dx) - yaw)
+        error = wrap_angle(math.atan2(dy, dx) - yaw)
         w = float(np.clip(2.0 * error, -self.turn_rate, self.turn_rate))
         if abs(error) > self.turn_in_place:
             # too slow a turn on the spot would never finish against friction
@@ -637,7 +632,7 @@ class RandomWalkDriver(Driver):
                     break
             self.mode_ = "avoid"
         if self.mode_ == "avoid":
-            error = _wrap(self._target_yaw - yaw)
+            error = wrap_angle(self._target_yaw - yaw)
             if abs(error) > 0.15:
                 rate = max(0.3 * self.turn_rate, min(self.turn_rate, 2.0 * abs(error)))
                 return _action(0.0, math.copysign(rate, error))
