@@ -73,7 +73,9 @@ def cost_landscape(
     fig: Any = None,
     ax: Any = None,
 ) -> tuple[Any, Any]:
-    """The cost ``(n,)`` of reaching ``goal`` at grid ``positions (n, 2)`` (log colour scale),
+    """The cost ``(n,)`` of reaching ``goal`` at grid ``positions (n, 2)``, coloured by its square
+    root (the cost grows like the squared distance, so its root reads like a distance; a log
+    scale would make the far arena look flat),
     with its local minima marked: gradient following ends in any of them."""
     fig, ax = _figure(fig, ax, (6.0, 5.0))
     p = np.asarray(positions, dtype=np.float64)
@@ -82,12 +84,12 @@ def cost_landscape(
     grid = np.full((len(ys), len(xs)), np.nan)
     grid[np.searchsorted(ys, p[:, 1]), np.searchsorted(xs, p[:, 0])] = c
     image = ax.imshow(
-        np.log10(grid + 1e-6 * np.nanmax(grid)),
+        np.sqrt(np.maximum(grid, 0.0)),
         origin="lower",
         extent=(xs[0], xs[-1], ys[0], ys[-1]),
         cmap="viridis",
     )
-    fig.colorbar(image, ax=ax, label="log10 cost")
+    fig.colorbar(image, ax=ax, label="sqrt(cost)")
     minima = _local_minima(grid)
     ax.plot(xs[minima[1]], ys[minima[0]], "w^", ms=5, label="local minima")
     ax.plot(goal[0], goal[1], "r*", ms=12, label="goal")
