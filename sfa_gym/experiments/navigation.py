@@ -4,8 +4,9 @@ field, and run navigation controllers on fixed episode seeds.
 1. Training run: panoramas on an ``n x n`` grid over the free space, visited in Hilbert-curve
    order (the order shapes the slow features, as in the localization protocol); hierarchical SFA
    is fitted on all their simulated rotations.
-2. Feature weights: the slowness of each feature along that training sequence
-   (:func:`~sfa_gym.navigation.controllers.slowness_weights`): unsupervised, no positions.
+2. Feature weights: each feature's slowness along that training sequence, to the power
+   ``-weight_power`` (:func:`~sfa_gym.navigation.controllers.slowness_weights`): unsupervised,
+   no positions.
 3. Feature field (:class:`~sfa_gym.navigation.field.FeatureField`): the rotation-averaged
    features on a grid of ``field_spacing``; the navigation env then steps physics only.
 4. Controllers on ``episodes`` seeds: the slow-feature-gradient controller on each feature
@@ -55,6 +56,9 @@ class NavigationExperiment:
     """seed of the first episode; episode i uses episode_seed + i"""
     rendered_episodes: int = 0
     """episodes of the gradient controller on SFA that render panoramas (slow: ~0.1 s a step)"""
+    weight_power: float = 2.0
+    """the gradient controller's cost weighs each feature by its slowness ** -power (1: the
+    commute-time distance, 2: the biharmonic distance)"""
     controllers: tuple[str, ...] = CONTROLLERS
     """controllers to run: gradient (on every feature method), oracle, random"""
     sfa: SFASettings = SFASettings(node_dim=16, n_outputs=8)
@@ -71,6 +75,7 @@ class NavigationExperiment:
         check_positive_int("episodes", self.episodes)
         check_int("episode_seed", self.episode_seed)
         check_int("rendered_episodes", self.rendered_episodes)
+        check_positive("weight_power", self.weight_power)
         unknown = sorted(set(self.controllers) - set(CONTROLLERS))
         if unknown or not self.controllers:
             raise ValueError(f"controllers must be among {list(CONTROLLERS)}, got {unknown}")
@@ -200,7 +205,9 @@ def run_navigation_experiment(
     weights: dict[str, NDArray[np.float64]] = {}
     for name, model in models.items():
         field = _field(camera, nav, model, out / f"field_{name}.npz", config, name, progress)
-        weights[name] = slowness_weights(rotation_averaged_features(model, train, step=1))
+        weights[name] = slowness_weights(
+            rotation_averaged_features(model, train, step=1), config.weight_power
+        )
         env = gym.make(config.env_id, world_seed=config.world_seed, feature_field=field)
         runs: list[tuple[str, Any]] = []
         if "gradient" in config.controllers:

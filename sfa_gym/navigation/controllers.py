@@ -46,44 +46,54 @@ class Controller(Protocol):
     def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]: ...
 
 
-def slowness_weights(sequence: ArrayLike) -> NDArray[np.float64]:
-    """Feature weights ``1 / delta_i`` of standardised features, from features ``(T, k)`` along a
-    trajectory in time order (a training run; no positions needed).
+def slowness_weights(sequence: ArrayLike, power: float = 2.0) -> NDArray[np.float64]:
+    """Feature weights ``delta_i ** -power`` from features ``(T, k)`` along a trajectory in time
+    order (a training run; no positions needed).
 
-    ``delta_i = mean((f_i[t+1] - f_i[t])^2) / var(f_i)`` is the slowness SFA minimises. A cost
-    ``sum_i w_i (f_i - g_i)^2`` with ``w_i = 1 / (delta_i var(f_i)) = 1 / mean(diff_i^2)`` weighs
-    the standardised features by their slowness: slow features, which vary smoothly over the whole
-    arena, dominate, and fast ones, whose many extrema would create false minima, count less. In
-    these weights every feature changes by about one unit per step of the trajectory, so the
-    cost is roughly ``k`` times the squared distance in trajectory steps.
+    ``delta_i = mean((f_i[t+1] - f_i[t])^2) / var(f_i)`` is the slowness SFA minimises. The cost
+    ``sum_i w_i (f_i - g_i)^2`` weighs the standardised features by their slowness, so that slow
+    features, which vary smoothly over the whole arena, dominate and fast ones, whose many
+    extrema would create false minima, count less. SFA's outputs approximate the slowest
+    eigenfunctions of the Laplacian of the space the training run explored, with ``delta_i`` their
+    eigenvalues; ``power=1`` then gives the commute-time (diffusion) distance and ``power=2``
+    (default) the biharmonic distance (Lipman et al. 2010), which is smooth at the goal and keeps
+    its slope far from it (the README's navigation section compares the powers).
     """
     f = np.asarray(sequence, dtype=np.float64)
     if f.ndim != 2 or len(f) < 3:
         raise ValueError(f"sequence must be (T, k) features with T >= 3, got shape {f.shape}")
-    mean_square_step = np.mean(np.diff(f, axis=0) ** 2, axis=0)
-    if np.any(~(mean_square_step > 0)):
+    if not (isinstance(power, int | float) and power > 0):
+        raise ValueError(f"power must be a positive number, got {power!r}")
+    variance = np.var(f, axis=0)
+    delta = np.mean(np.diff(f, axis=0) ** 2, axis=0) / np.where(variance > 0, variance, 1.0)
+    if np.any(~(delta > 0)) or np.any(~(variance > 0)):
         raise ValueError("a feature does not change along the sequence: its slowness is undefined")
-    return 1.0 / mean_square_step
+    return (1.0 / delta) ** power / variance
 
 
 @dataclass(frozen=True)
 class GradientSettings:
     """Settings of :class:`GradientController` (SI units)."""
 
-    history: int = 12
-    """recent steps the local model of the features is fitted on"""
     memory: float = 0.5
-    """metres of travel over which old samples fade out of the fit (exponential weight)"""
-    weave_deg: float = 35.0
+    """metres of travel over which old samples fade out of the local fit (exponential weight)"""
+    window: float = 1.5
+    """metres of travel after which samples are dropped"""
+    prior: float = 0.02
+    """strength (m^2) of the prior that the Jacobian is still the last one: directions the recent
+    moves did not explore keep their old estimate instead of becoming undetermined"""
+    damping: float = 0.1
+    """Levenberg-Marquardt damping of the Gauss-Newton step, relative to the trace of J^T W J"""
+    weave_deg: float = 25.0
     """amplitude of the weave around the descent direction: consecutive moves are not collinear,
-    so the recent moves span the plane and the gradient is identifiable"""
-    weave_period: int = 10
-    """steps per weave cycle"""
+    so the recent moves span the plane"""
+    weave_wavelength: float = 2.0
+    """metres of travel per weave cycle"""
     speed: float = 0.3
     """cruising speed (m/s)"""
     slow_distance: float = 0.6
     """estimated distance to the goal (m) below which the rover slows down"""
-    min_speed: float = 0.12
+    min_speed: float = 0.1
     """slowest driving speed (m/s): the rover must keep moving to keep estimating the gradient"""
     accel: float = 0.5
     """largest change of the forward speed (m/s^2): speed reversals tip the rover and its
@@ -101,6 +111,10 @@ class GradientSettings:
     """relative decrease of the best cost that counts as progress"""
     clearance: float = 0.55
     """range (m, from the rover's centre) below which a ray direction counts as blocked"""
+    repel: float = 2.0
+    """weight of the push away from close range readings, against the unit descent direction"""
+    influence: float = 0.9
+    """range (m) below which a reading pushes the rover away; the push grows linearly to 1 at 0"""
 
 
 class GradientController:
@@ -108,16 +122,19 @@ class GradientController:
     patent EP3367061), estimated online from the rover's own moves.
 
     The cost is ``c = sum_i w_i (f_i - g_i)^2`` between the current features ``f`` and the goal's
-    ``g``. The controller keeps the features and odometry positions of its last ``history``
-    steps and fits the local linear model ``f(p) = a + J (p - p_now)`` by weighted least squares
-    (recent samples weigh more). Then ``grad c = 2 J^T W (a - g)``, and the Gauss-Newton step
-    ``d = -(J^T W J)^-1 J^T W (a - g)`` estimates the displacement to the goal: the rover drives
-    along ``d``, weaving around it (:attr:`GradientSettings.weave_deg`) so that consecutive moves
-    are not collinear. It stops when the running mean of the cost falls below the cost of being
-    ``stop_distance`` from the goal (from ``J``) plus the noise floor (the fit's residual), and
-    gives up (stops) after ``give_up`` metres without progress. The range sensor turns the
-    rover away from walls and obstacles: a blocked descent direction is replaced by the nearest
-    free one.
+    ``g`` (``w`` from :func:`slowness_weights`). The controller keeps the features and odometry
+    positions of its recent moves (one sample per centimetre of travel, over ``window`` metres)
+    and fits the local linear model ``f(p) = a + J (p - p_now)`` by weighted least squares: a
+    sample fades with the distance travelled since it (``memory``), and a prior keeps the
+    Jacobian's unexplored directions at their last estimate (``prior``), since the rover mostly
+    moves along one direction. The damped Gauss-Newton step
+    ``d = -(J^T W J + mu I)^-1 J^T W (a - g)`` gives the descent direction; the rover drives
+    along it, weaving around it (``weave_deg``) so that consecutive moves are not collinear, and
+    pushed away from walls and obstacles its range sensor sees within ``influence``; a blocked
+    direction is replaced by the nearest free one. Its speed follows the distance to the goal
+    estimated from the cost and the fit's curvature. It stops when the running mean of the cost
+    falls below the cost of being ``stop_distance`` from the goal plus the fit's noise floor,
+    and gives up (stops) after ``give_up`` metres without progress.
 
     Args:
         weights: ``(k,)`` feature weights (:func:`slowness_weights`).
@@ -157,43 +174,111 @@ class GradientController:
     # -- episode --------------------------------------------------------------------------------
 
     def reset(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> None:
-        self._samples: deque[tuple[NDArray, NDArray]] = deque(maxlen=self.settings.history)
-        self._costs: deque[float] = deque(maxlen=self.settings.stop_window)
+        self._positions: list[NDArray] = []
+        self._features: list[NDArray] = []
+        self._odometer: list[float] = []  # distance travelled when each sample was taken
         self._travelled = 0.0
+        self._last_position: NDArray | None = None
+        self._jacobian: NDArray | None = None
+        self._costs: deque[float] = deque(maxlen=self.settings.stop_window)
         self._best = math.inf
         self._best_at = 0.0
         self._v = 0.0
-        self._step = 0
         self._phase = float(self.rng.uniform(0, math.tau))
-        self._last_position: NDArray | None = None
         self.estimate: dict[str, float] = {}
 
-    def _cost(self, f: NDArray, g: NDArray) -> float:
-        return float(np.sum(self.weights * (f - g) ** 2))
+    def _remember(self, position: NDArray, features: NDArray) -> None:
+        if self._last_position is not None:
+            self._travelled += float(np.linalg.norm(position - self._last_position))
+        self._last_position = position
+        if self._positions and np.linalg.norm(position - self._positions[-1]) < 0.01:
+            # turning on the spot adds no information: keep only the latest features there
+            self._positions[-1], self._features[-1] = position, features
+            self._odometer[-1] = self._travelled
+        else:
+            self._positions.append(position)
+            self._features.append(features)
+            self._odometer.append(self._travelled)
+        while self._travelled - self._odometer[0] > self.settings.window:
+            del self._positions[0], self._features[0], self._odometer[0]
 
     def _fit(self, position: NDArray) -> tuple[NDArray, NDArray, float] | None:
-        """``(a, J, residual cost)`` of the local linear model, or None while the recent moves do
-        not span the plane."""
+        """``(a, J, noise floor of the cost)`` of the local linear model, or None while the first
+        moves do not span the plane."""
         s = self.settings
-        p = np.array([q for q, _ in self._samples]) - position
-        f = np.array([v for _, v in self._samples])
-        if len(p) < 4:
+        if len(self._positions) < 4:
             return None
-        # fade samples by the distance travelled since them (cumulative path, newest last)
-        steps = np.r_[np.linalg.norm(np.diff(p, axis=0), axis=1), 0.0]
-        behind = np.cumsum(steps[::-1])[::-1] - steps
-        sw = np.sqrt(np.exp(-behind / s.memory))
-        design = np.column_stack([np.ones(len(p)), p]) * sw[:, None]
-        spread = np.linalg.svd(design[:, 1:], compute_uv=False)
-        if spread[-1] < 0.02:  # the moves span less than a couple of cm across
-            return None
-        coef, *_ = np.linalg.lstsq(design, f * sw[:, None], rcond=None)
-        residual = f * sw[:, None] - design @ coef
-        dof = max(len(p) - 3, 1)
-        noise = float(np.sum(self.weights * residual**2) / dof)
-        return coef[0], coef[1:].T, noise
+        p = np.array(self._positions) - position
+        f = np.array(self._features)
+        sw = np.exp(-(self._travelled - np.array(self._odometer)) / s.memory)
+        design = np.column_stack([np.ones(len(p)), p])
+        normal = design.T @ (sw[:, None] * design)
+        rhs = design.T @ (sw[:, None] * f)
+        if self._jacobian is None:
+            spread = np.linalg.eigvalsh(np.cov(p.T, aweights=sw))
+            if spread[0] < 0.02**2:  # the moves span less than a couple of cm across
+                return None
+        else:
+            strength = s.prior * sw.sum()
+            normal[1:, 1:] += strength * np.eye(2)
+            rhs[1:] += strength * self._jacobian.T
+        coef = np.linalg.solve(normal, rhs)
+        a, self._jacobian = coef[0], coef[1:].T
+        residual = f - design @ coef
+        noise = float(np.sum(sw[:, None] * self.weights * residual**2) / max(sw.sum() - 3, 1))
+        return a, self._jacobian, noise
 
-    def _blocked(self, ranges: NDArray, heading: float) -> float:
+    def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]:
+        s = self.settings
+        f = np.asarray(obs["features"], dtype=np.float64)
+        g = np.asarray(obs["goal_features"], dtype=np.float64)
+        x, y, yaw = (float(v) for v in info["odometry"])
+        position = np.array([x, y])
+        self._remember(position, f)
+
+        cost = float(np.sum(self.weights * (f - g) ** 2))
+        self._costs.append(cost)
+        if cost < self._best * (1 - s.progress):
+            self._best, self._best_at = cost, self._travelled
+        if self._travelled - self._best_at > s.give_up:
+            return self._stop()
+
+        fit = self._fit(position)
+        if fit is None:
+            # not enough spread yet: drive a curve to get it
+            return self._drive(s.min_speed * 1.5, self.w_max * 0.6)
+        a, jac, noise = fit
+        metric = jac.T @ (self.weights[:, None] * jac)  # (2, 2) J^T W J
+        gradient = jac.T @ (self.weights * (a - g))
+        damping = s.damping * float(np.trace(metric)) + 1e-12
+        step = -np.linalg.solve(metric + damping * np.eye(2), gradient)
+        curvature = float(np.trace(metric)) / 2  # cost per m^2 of distance, on average
+        distance = math.sqrt(max(cost - noise, 0.0) / curvature) if curvature > 0 else math.inf
+        stop_cost = s.stop_distance**2 * curvature + noise
+        self.estimate = {"cost": cost, "distance": distance, "stop_cost": stop_cost}
+        if len(self._costs) == s.stop_window and np.mean(self._costs) < stop_cost:
+            return self._stop()
+
+        ranges = np.asarray(info.get("range", ()), dtype=np.float64)
+        direction = step / (np.linalg.norm(step) + 1e-12) + s.repel * self._push(ranges, yaw)
+        weave = math.radians(s.weave_deg) * math.sin(
+            self._phase + math.tau * self._travelled / s.weave_wavelength
+        )
+        heading = wrap_angle(math.atan2(direction[1], direction[0]) + weave - yaw)
+        heading = self._unblocked(ranges, heading)
+        scale = min(1.0, distance / s.slow_distance)
+        speed = max(s.min_speed, s.speed * scale) * max(math.cos(heading), 0.0)
+        return self._drive(speed, s.turn_gain * heading)
+
+    def _push(self, ranges: NDArray, yaw: float) -> NDArray:
+        """Away from the close range readings, in the odometry frame."""
+        if ranges.size == 0:
+            return np.zeros(2)
+        near = np.clip(1.0 - ranges / self.settings.influence, 0.0, None)
+        angles = yaw + self.range_angles
+        return -np.array([np.sum(near * np.cos(angles)), np.sum(near * np.sin(angles))])
+
+    def _unblocked(self, ranges: NDArray, heading: float) -> float:
         """The free direction (relative to the rover) nearest to ``heading``."""
         if ranges.size == 0:
             return heading
@@ -206,52 +291,7 @@ class GradientController:
         options = self.range_angles[free]
         return float(options[np.argmin(np.abs([wrap_angle(a - heading) for a in options]))])
 
-    def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]:
-        s = self.settings
-        f = np.asarray(obs["features"], dtype=np.float64)
-        g = np.asarray(obs["goal_features"], dtype=np.float64)
-        x, y, yaw = (float(v) for v in info["odometry"])
-        position = np.array([x, y])
-        if self._last_position is not None:
-            self._travelled += float(np.linalg.norm(position - self._last_position))
-        self._last_position = position
-        self._samples.append((position, f))
-        self._step += 1
-
-        cost = self._cost(f, g)
-        self._costs.append(cost)
-        if cost < self._best * (1 - s.progress):
-            self._best, self._best_at = cost, self._travelled
-        if self._travelled - self._best_at > s.give_up:
-            return self._stop()
-
-        fit = self._fit(position)
-        weave = math.radians(s.weave_deg) * math.sin(
-            self._phase + math.tau * self._step / s.weave_period
-        )
-        if fit is None:
-            # not enough spread yet: drive a curve to get it
-            return self._drive(s.min_speed * 1.5, self.w_max * 0.6, info)
-        a, jac, noise = fit
-        metric = jac.T @ (self.weights[:, None] * jac)  # (2, 2) J^T W J
-        gradient = jac.T @ (self.weights * (a - g))
-        try:
-            step = -np.linalg.solve(metric + 1e-9 * np.trace(metric) * np.eye(2), gradient)
-        except np.linalg.LinAlgError:
-            step = -gradient
-        distance = float(np.linalg.norm(step))
-        stop_cost = s.stop_distance**2 * float(np.trace(metric)) / 2 + noise
-        self.estimate = {"cost": cost, "distance": distance, "stop_cost": stop_cost}
-        if len(self._costs) == s.stop_window and np.mean(self._costs) < stop_cost:
-            return self._stop()
-
-        heading = wrap_angle(math.atan2(step[1], step[0]) - yaw + weave)
-        heading = self._blocked(np.asarray(info.get("range", ()), dtype=np.float64), heading)
-        scale = min(1.0, distance / s.slow_distance)
-        speed = max(s.min_speed, s.speed * scale) * max(math.cos(heading), 0.0)
-        return self._drive(speed, s.turn_gain * heading, info)
-
-    def _drive(self, v: float, w: float, info: Mapping[str, Any]) -> NDArray[np.float32]:
+    def _drive(self, v: float, w: float) -> NDArray[np.float32]:
         limit = self.settings.accel * self.dt
         v = min(max(v, self._v - limit, 0.0), self._v + limit, self.v_max)
         self._v = v

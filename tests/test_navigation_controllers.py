@@ -1,0 +1,97 @@
+"""The slow-feature-gradient controller: its weights, what it may read, and that it reaches goals
+on the features of a really fitted (small) hierarchical SFA, read from a coarse feature field."""
+
+from __future__ import annotations
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sfa_gym  # noqa: F401  (registers the ids)
+from sfa_gym.experiments.navigation import NavigationExperiment, _training_panoramas
+from sfa_gym.features import rotation_averaged_features
+from sfa_gym.navigation.controllers import GradientController, slowness_weights
+from sfa_gym.navigation.evaluate import run_episode
+from sfa_gym.navigation.field import FeatureField
+from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
+from sfa_gym.sim.env import OmniRoverEnv
+
+# what a real rover has: its features, wheel odometry and range sensor, and the episode's clock
+OWN_SENSES = {"odometry", "range", "t"}
+
+
+def test_slowness_weights_known_answer():
+    t = np.arange(2000)
+    omega = np.array([4, 32]) * 2 * np.pi / len(t)  # whole periods: the variance is A^2 / 2
+    sequence = np.column_stack([3 * np.sin(omega[0] * t), np.sin(omega[1] * t)])
+    # slowness of a sinusoid: mean squared step A^2 (1 - cos omega) over the variance A^2 / 2
+    delta = 2 * (1 - np.cos(omega))
+    for power in (1.0, 2.0):
+        w = slowness_weights(sequence, power)
+        expected = delta**-power / np.array([9 * 0.5, 0.5])
+        np.testing.assert_allclose(w, expected, rtol=0.01)
+    # power 2 favours the slow feature more than power 1 does
+    w1, w2 = slowness_weights(sequence, 1.0), slowness_weights(sequence, 2.0)
+    assert (w2[0] * 9) / w2[1] > 50 * (w1[0] * 9) / w1[1]
+
+
+@pytest.mark.parametrize(
+    ("sequence", "power", "match"),
+    [
+        (np.zeros((5,)), 2.0, r"\(T, k\)"),
+        (np.column_stack([np.arange(5.0), np.ones(5)]), 2.0, "does not change"),
+        (np.random.default_rng(0).normal(size=(10, 2)), 0.0, "power must be a positive"),
+    ],
+)
+def test_slowness_weights_refuse_bad_input(sequence, power, match):
+    with pytest.raises(ValueError, match=match):
+        slowness_weights(sequence, power)
+
+
+@pytest.fixture(scope="module")
+def trained():
+    """Hierarchical SFA (small) fitted on a 14 x 14 grid in Hilbert order, its slowness weights,
+    and its feature field at 0.3 m."""
+    nav = gym.make("sfa_gym/OmniRoverNav-v0").unwrapped
+    camera = OmniRoverEnv(nav.world, nav.world_seed, nav.panorama)
+    train = _training_panoramas(NavigationExperiment(train_grid=14), nav, camera, progress=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RankDeficiencyWarning)
+        model = HierarchicalSFA(
+            presets.paper_sim(dim=8, out_dim=8), n_outputs=8, weight_sharing="rows", progress=False
+        ).fit_rotations(train, step=5)
+        weights = slowness_weights(rotation_averaged_features(model, train, step=1))
+        field = FeatureField.build(camera, model, spacing=0.3, progress=False)
+    camera.close()
+    return weights, field
+
+
+@pytest.mark.parametrize(
+    ("start", "goal"),
+    [((-1.5, -1.2, 0.5), (1.3, 1.1, 0.0)), ((1.6, -1.0, 2.5), (-1.2, 1.4, 0.0))],
+)
+def test_gradient_controller_reaches_a_goal_with_its_own_senses(trained, start, goal):
+    weights, field = trained
+    env = gym.make("sfa_gym/OmniRoverNav-v0", feature_field=field)
+    controller = GradientController.for_env(env, weights)
+    obs, info = env.reset(seed=0, options={"start": start, "goal": goal})
+    controller.reset(obs, {k: info[k] for k in OWN_SENSES})
+    for _ in range(600):
+        # the controller never sees the ground truth: only its own senses are passed on
+        obs, _, terminated, truncated, info = env.step(
+            controller.act(obs, {k: info[k] for k in OWN_SENSES})
+        )
+        if terminated or truncated:
+            break
+    assert info["success"], (info["x"], info["y"], info["geodesic_distance"])
+    assert info["path_length"] < 2.0 * info["shortest_path"]
+    assert info["collisions"] == 0
+
+
+def test_gradient_controller_is_deterministic(trained):
+    weights, field = trained
+    env = gym.make("sfa_gym/OmniRoverNav-v0", feature_field=field)
+    runs = [run_episode(env, GradientController.for_env(env, weights), seed=3) for _ in range(2)]
+    np.testing.assert_array_equal(runs[0]["path"], runs[1]["path"])
