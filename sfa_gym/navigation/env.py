@@ -200,6 +200,8 @@ class OmniRoverNavEnv(OmniRoverEnv):
             angles = np.linspace(-half, half, self.range_rays)
         self.range_angles = angles
         self._ray_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], 1)
+        self._ray_geom = np.zeros(self.range_rays, dtype=np.int32)
+        self._ray_dist = np.zeros(self.range_rays)
 
         if self.stop_action:
             self.action_space = spaces.Box(
@@ -247,11 +249,13 @@ class OmniRoverNavEnv(OmniRoverEnv):
             return out
         xmat = self.data.xmat[self._body].reshape(3, 3)
         origin = self.data.xpos[self._body] + xmat[:, 2] * _RANGE_HEIGHT
-        geomid = np.zeros(1, dtype=np.int32)
-        for i, direction in enumerate(self._ray_dirs @ xmat.T):
-            d = mujoco.mj_ray(self.model, self.data, origin, direction, None, 1, self._body, geomid)
-            if 0 <= d < self.range_max:
-                out[i] = d
+        directions = (self._ray_dirs @ xmat.T).ravel()
+        mujoco.mj_multiRay(
+            self.model, self.data, origin, directions, None, 1, self._body,
+            self._ray_geom, self._ray_dist, None, self.range_rays, self.range_max,
+        )  # fmt: skip
+        hit = (self._ray_dist >= 0) & (self._ray_dist < self.range_max)
+        out[hit] = self._ray_dist[hit]
         return out
 
     def _touching(self) -> bool:
@@ -318,21 +322,20 @@ class OmniRoverNavEnv(OmniRoverEnv):
             "goal_features": self._goal_features.copy(),
         }
 
-    def _nav_info(self) -> dict[str, Any]:
-        info: dict[str, Any] = self._info()
-        info.update(
-            start=np.array(self._start),
-            goal=np.array(self._goal),
-            geodesic_distance=self._distance,
-            shortest_path=self._shortest,
-            path_length=self._path_length,
-            success=self._success,
-            collisions=self._collisions,
-            interior=self._interior,
-            odometry=self.odometry.pose.copy(),
-            range=self._ranges(),
-        )
-        return info
+    def _nav_info(self, x: float, y: float, yaw: float) -> dict[str, Any]:
+        """The info dict at the current pose ``(x, y, yaw)`` (read once per step by the caller)."""
+        return self._info((x, y, yaw)) | {
+            "start": np.array(self._start),
+            "goal": np.array(self._goal),
+            "geodesic_distance": self._distance,
+            "shortest_path": self._shortest,
+            "path_length": self._path_length,
+            "success": self._success,
+            "collisions": self._collisions,
+            "interior": self._interior,
+            "odometry": self.odometry.pose.copy(),
+            "range": self._ranges(),
+        }
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -371,7 +374,8 @@ class OmniRoverNavEnv(OmniRoverEnv):
         self._success = False
         self._collisions = 0
         self._was_touching = self._touching()
-        return self._observation(panorama, *self._start[:2]), self._nav_info()
+        self._xy = self._pose()[:2]
+        return self._observation(panorama, *self._start[:2]), self._nav_info(*self._pose())
 
     def step(
         self, action: NDArray[np.float32]
@@ -383,21 +387,22 @@ class OmniRoverNavEnv(OmniRoverEnv):
             raise ValueError(f"action must have shape ({n},) = {what}, got shape {a.shape}")
         if not np.all(np.isfinite(a)):
             raise ValueError(f"action must be finite, got {a.tolist()}")
-        x0, y0, _ = self._pose()
+        x0, y0 = self._xy
         v = min(max(a[0], -self.v_max), self.v_max)
         w = min(max(a[1], -self.w_max), self.w_max)
         left, right = self.rover.wheel_speeds(v, w)
         self.data.ctrl[self._actuators] = (left, left, right, right)
         mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
 
-        x, y, _ = self._pose()
+        x, y, yaw = self._pose()
+        self._xy = x, y
         self._path_length += math.hypot(x - x0, y - y0)
         self.odometry.update(self._wheel_angles())
         touching = self._touching()
         self._collisions += int(touching and not self._was_touching)
         self._was_touching = touching
         previous = self._distance
-        self._distance = float(self._goal_geodesic.distance(np.array([[x, y]]))[0])
+        self._distance = self._goal_geodesic.distance_at(x, y)
         arrived = math.hypot(x - self._goal[0], y - self._goal[1]) <= self.success_radius
         terminated = bool(a[2] > 0) if self.stop_action else arrived
         self._success = terminated and arrived
@@ -410,4 +415,4 @@ class OmniRoverNavEnv(OmniRoverEnv):
             gl.check_usable()
             panorama = self._camera.render(self.data)
         obs = self._observation(panorama, x, y)
-        return obs, float(reward), terminated, False, self._nav_info()
+        return obs, float(reward), terminated, False, self._nav_info(x, y, yaw)

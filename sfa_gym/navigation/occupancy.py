@@ -223,6 +223,10 @@ class OccupancyGrid:
         return units * self.resolution + np.asarray(self.origin)
 
     @cached_property
+    def _all_free(self) -> bool:
+        return bool(self.free.all())
+
+    @cached_property
     def _padded(self) -> NDArray[np.bool_]:
         # a blocked border makes every lookup outside the grid blocked
         return np.pad(self.free, 1, constant_values=False)
@@ -485,6 +489,19 @@ class GeodesicField:
         free cell centre, and that leg counts."""
         moved, extra = self.grid._snap(self.grid._units(_points(points)))
         return (self._solve(moved)[0] + extra) * self.grid.resolution
+
+    def distance_at(self, x: float, y: float) -> float:
+        """:meth:`distance` of the single point ``(x, y)`` (m), for per-step use. Where the grid
+        has no blocked cell its free space is a rectangle that sees the goal from everywhere,
+        and the distance of a point inside it is the straight line, computed without arrays."""
+        grid = self.grid
+        if grid._all_free:
+            xmin, ymin = grid.origin
+            ny, nx = grid.shape
+            r = grid.resolution
+            if xmin <= x <= xmin + nx * r and ymin <= y <= ymin + ny * r:
+                return math.hypot(x - self.goal[0], y - self.goal[1])
+        return float(self.distance(np.array([[x, y]]))[0])
 
     def path(self, start: ArrayLike) -> NDArray[np.float64]:
         """``(m, 2)`` the shortest path (m) from ``start`` ``(2,)`` to the goal: a polyline from

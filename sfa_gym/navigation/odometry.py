@@ -49,12 +49,16 @@ class WheelOdometry:
     def update(self, wheel_angles: ArrayLike) -> NDArray[np.float64]:
         """Advance by the wheel turns since the last call; returns ``(x, y, yaw)`` (m, m, rad)."""
         angles = self._check(wheel_angles)
-        turned = (angles - self._angles) * self.wheel_radius
+        # plain floats: this runs every env step, where numpy's per-call cost on four numbers
+        # would dominate
+        fl, rl, fr, rr = angles.tolist()
+        pfl, prl, pfr, prr = self._angles.tolist()
         self._angles = angles
-        left, right = turned[:2].mean(), turned[2:].mean()
+        left = (fl - pfl + rl - prl) * self.wheel_radius / 2
+        right = (fr - pfr + rr - prr) * self.wheel_radius / 2
         distance = (left + right) / 2
         dyaw = (right - left) / self.effective_track
-        x, y, yaw = self.pose
+        x, y, yaw = self.pose.tolist()
         # integrate along the arc's mid heading: exact for a constant-curvature step to 2nd order
         mid = yaw + dyaw / 2
         yaw = math.remainder(yaw + dyaw, math.tau)
@@ -64,6 +68,6 @@ class WheelOdometry:
     @staticmethod
     def _check(wheel_angles: ArrayLike) -> NDArray[np.float64]:
         angles = np.asarray(wheel_angles, dtype=np.float64)
-        if angles.shape != (4,) or not np.all(np.isfinite(angles)):
+        if angles.shape != (4,) or not math.isfinite(angles.sum()):
             raise ValueError(f"wheel_angles must be 4 finite angles (rad), got {angles!r}")
         return angles

@@ -285,8 +285,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         q = self.data.qpos[self._qpos0 : self._qpos0 + 7]
         return float(q[0]), float(q[1]), yaw_of_quat(*(float(v) for v in q[3:7]))
 
-    def _info(self) -> dict[str, float]:
-        x, y, yaw = self._pose()
+    def _info(self, pose: tuple[float, float, float] | None = None) -> dict[str, float]:
+        """Ground truth at ``pose`` (the current one, read from the state when None)."""
+        x, y, yaw = self._pose() if pose is None else pose
         return {"x": x, "y": y, "yaw": yaw, "t": float(self.data.time)}
 
     def _random_pose(self) -> tuple[float, float, float]:
