@@ -1,41 +1,71 @@
-"""PPO (stable-baselines3) on goal-conditioned features in the navigation envs.
+"""PPO (stable-baselines3) on goal-conditioned features or on raw panoramas, navigation envs.
 
-The agent observes ``Dict(features, goal_features)`` from a feature field (the env steps physics
-only, thousands of steps per second) and outputs ``(v, w)``; the episode ends on arrival
-(``stop_action=False``: a continuous stop action would end most early episodes at random). The
-policy is an MLP on the concatenated current and goal features, with the PPO settings of Lange et
-al. 2024 (arXiv 2402.12067). Every ``eval_every`` steps it is evaluated deterministically on fixed
-episode seeds; the learning curve (success vs steps) is written as CSV and PNG.
+Two observations, one agent:
 
-Run it on a field written by ``sfa-gym navigate`` (``field_sfa.npz``, ``field_fft_magnitude.npz``,
-...)::
+* **features** (``--field path.npz``): ``Dict(features, goal_features)`` read from a feature
+  field of a fitted method (``field_sfa.npz``, ``field_fft_magnitude.npz``, ... written by
+  ``sfa-gym navigate``): the env steps physics only, ~2000 steps/s. The features do not
+  depend on the heading, so the policy (``MlpPolicy``) also sees a short memory of recent
+  features and odometry positions (:class:`FeatureHistory`): what the gradient controller
+  estimates its gradient from.
+* **pixels** (no ``--field``): the rendered current and goal panoramas stacked along the
+  channels, ``(H, W, 6)`` uint8, into SB3's ``CnnPolicy`` (NatureCNN). Rendering costs ~7 ms a
+  step, so this agent gets a smaller step budget: say so when you report it.
 
-    python baselines/agents/ppo_nav.py --field results/nav/field_sfa.npz --out results/ppo-sfa
+The action is ``(v, w)``; the episode ends on arrival within the success radius
+(``stop_action=False``): a continuous stop action would end most early episodes at random.
+Success for these agents is therefore *arrival*, not the Habitat-style arrival plus a stop
+decision the gradient controller is scored on. The PPO settings are those of Lange et al. 2024
+(arXiv 2402.12067): n_steps 128, lr 2.5e-4, gamma 0.99, GAE 0.95, entropy 0.01, clip 0.1,
+batch 128. The reward is the env's: geodesic progress (oracle shaping from the map) plus 1 on
+arrival, or sparse.
 
-The model file is SB3's zip, which stores the policy's weights as torch tensors and some objects
-as pickles: SB3's loader unpickles them, so load only model files you made yourself.
+Every ``eval_every`` steps the deterministic policy runs on fixed episode seeds (``eval_seed``
+...) and the learning curve (success, SPL vs steps) is written to ``learning_curve.csv``; the
+model is checkpointed beside it. Both are written atomically (a temporary file, then a
+rename), and a run started again with the same ``--out`` resumes from the checkpoint.
+Resuming continues the policy, the optimiser and the step count; the training envs restart
+with fresh episodes, so a resumed run is not bit-identical to an uninterrupted one.
+
+Usage (from the repository root, after ``sfa-gym navigate --out results/nav --baselines
+baselines/``)::
+
+    python baselines/agents/ppo_nav.py --field results/nav/field_sfa.npz --out results/ppo/sfa-0
+    python baselines/agents/ppo_nav.py --out results/ppo/pixels-0 --total-timesteps 100000
+
+The model files are SB3's zip, which stores the policy's weights as torch tensors and some
+objects as pickles; SB3's loader unpickles them, so load only model files you made yourself.
 """
 
 from __future__ import annotations
 
 import csv
+import io
+import os
 import time
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+import gymnasium as gym
 import numpy as np
+
+CURVE = "learning_curve.csv"
+CHECKPOINT = "checkpoint.zip"
+FIELDS = ("steps", "success", "spl", "final_distance", "seconds")
 
 
 @dataclass(frozen=True)
 class Args:
-    field: Path
-    """feature field file (.npz) of the env's world"""
-    out: Path = Path("results/ppo")
-    """output folder: learning curve (CSV, PNG) and the final model"""
+    out: Path
+    """output folder: learning curve (CSV, PNG), checkpoint and final model"""
+    field: Path | None = None
+    """feature field (.npz) of the env's world; None: raw panoramas, rendered, CnnPolicy"""
     env_id: str = "sfa_gym/OmniRoverNav-v0"
     """navigation env"""
     world_seed: int = 0
-    """world seed the field was built for"""
+    """world seed (the field's, when there is one)"""
     total_timesteps: int = 1_000_000
     """training steps"""
     seed: int = 0
@@ -45,43 +75,123 @@ class Args:
     reward: str = "geodesic"
     """env reward: geodesic (progress along the shortest path, oracle shaping) or sparse"""
     eval_every: int = 50_000
-    """steps between evaluations"""
+    """steps between evaluations (and checkpoints)"""
     eval_episodes: int = 50
-    """episodes per evaluation (seeds 10000 ...)"""
+    """episodes per evaluation"""
+    eval_seed: int = 10_000
+    """seed of the first evaluation episode (the same episodes at every evaluation)"""
     n_steps: int = 128
     """PPO rollout length per env"""
     learning_rate: float = 2.5e-4
     """PPO learning rate"""
     batch_size: int = 128
     """PPO minibatch size"""
+    n_epochs: int = 10
+    """PPO epochs per update"""
     ent_coef: float = 0.01
     """PPO entropy coefficient"""
     clip_range: float = 0.1
     """PPO clip range"""
+    threads: int = 1
+    """torch threads (1: several runs share the cores without contention)"""
+    history: int = 8
+    """feature agents see this many recent steps (features and odometry positions)"""
+    history_stride: int = 2
+    """steps between the remembered ones"""
+    progress: bool = True
+    """show a progress bar"""
+
+
+class StackedPanoramas:
+    """Observation transform: the current and the goal panorama as one ``(H, W, 6)`` image."""
+
+    def __init__(self, space: Any) -> None:
+        h, w, c = space["panorama"].shape
+        self.space = gym.spaces.Box(0, 255, (h, w, 2 * c), np.uint8)
+
+    def __call__(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        return np.concatenate([obs["panorama"], obs["goal"]], axis=2)
+
+
+class FeatureHistory:
+    """Observations of a feature field env with a short memory, as one ``float32`` vector.
+
+    The features are rotation-averaged: they say where the rover is, not which way it faces, so
+    a memoryless policy cannot tell which way to drive. Like the gradient controller, the agent
+    therefore sees its recent past: for the current step and ``history - 1`` earlier ones
+    (``stride`` steps apart), the features then and where the rover was then, from its wheel
+    odometry, in its current body frame (m); and the goal's features. Features are
+    standardised by their mean and spread over the field's nodes (no labels), so that methods
+    with different scales meet the same MLP. Length ``history * (k + 2) + k``.
+    """
+
+    def __init__(self, field: Any, history: int, stride: int) -> None:
+        import gymnasium as gym
+
+        values = np.asarray(field.values, dtype=np.float64).reshape(-1, field.n_features)
+        self.mean = values.mean(axis=0)
+        self.scale = np.maximum(values.std(axis=0), 1e-12)
+        self.history, self.stride = history, stride
+        n = history * (field.n_features + 2) + field.n_features
+        self.space = gym.spaces.Box(-np.inf, np.inf, (n,), np.float32)
+        self._past: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=(history - 1) * stride + 1)
+
+    def standardise(self, features: np.ndarray) -> np.ndarray:
+        return (features - self.mean) / self.scale
+
+    def __call__(self, obs: dict[str, np.ndarray], info: dict[str, Any], new: bool) -> np.ndarray:
+        entry = (self.standardise(obs["features"]), np.asarray(info["odometry"], dtype=np.float64))
+        if new:  # an episode starts: the past is the present
+            self._past.extend([entry] * self._past.maxlen)
+        self._past.append(entry)
+        x, y, yaw = entry[1]
+        turn = np.array([[np.cos(yaw), np.sin(yaw)], [-np.sin(yaw), np.cos(yaw)]])
+        parts = [self.standardise(obs["goal_features"])]
+        for features, pose in list(self._past)[:: -self.stride]:
+            parts += [features, turn @ (pose[:2] - (x, y))]
+        return np.concatenate(parts).astype(np.float32)
+
+
+class WithHistory(gym.Wrapper):
+    """Gives the env the observation of a :class:`FeatureHistory`."""
+
+    def __init__(self, env: gym.Env, history: FeatureHistory) -> None:
+        super().__init__(env)
+        self.memory = history
+        self.observation_space = history.space
+
+    def reset(self, **kwargs):
+        obs, info = self.env.reset(**kwargs)
+        return self.memory(obs, info, new=True), info
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return self.memory(obs, info, new=False), reward, terminated, truncated, info
 
 
 def make_env(args: Args):
-    import gymnasium as gym
-
+    """The env the agent trains and is evaluated on."""
     import sfa_gym  # noqa: F401  (registers the ids)
+    from sfa_gym.navigation.field import FeatureField
 
-    env = gym.make(
-        args.env_id,
-        world_seed=args.world_seed,
-        feature_field=str(args.field),
-        stop_action=False,
-        reward=args.reward,
-    )
-    return gym.wrappers.FlattenObservation(env)
+    kwargs: dict[str, Any] = {"world_seed": args.world_seed, "stop_action": False}
+    if args.field is not None:
+        field = FeatureField.load(args.field)
+        env = gym.make(args.env_id, feature_field=field, reward=args.reward, **kwargs)
+        return WithHistory(env, FeatureHistory(field, args.history, args.history_stride))
+    env = gym.make(args.env_id, reward=args.reward, **kwargs)
+    transform = StackedPanoramas(env.observation_space)
+    return gym.wrappers.TransformObservation(env, transform, transform.space)
 
 
-def evaluate(model, args: Args) -> dict[str, float]:
-    """Success rate and SPL of the deterministic policy on fixed episode seeds."""
+def evaluate(model: Any, args: Args) -> dict[str, float]:
+    """Success rate, SPL and mean final distance (m) of the deterministic policy on the episodes
+    ``eval_seed ...``."""
     from sfa_gym.navigation.metrics import spl
 
     env = make_env(args)
-    success, scores = [], []
-    for seed in range(10_000, 10_000 + args.eval_episodes):
+    success, scores, final = [], [], []
+    for seed in range(args.eval_seed, args.eval_seed + args.eval_episodes):
         obs, info = env.reset(seed=seed)
         done = False
         while not done:
@@ -90,63 +200,143 @@ def evaluate(model, args: Args) -> dict[str, float]:
             done = terminated or truncated
         success.append(info["success"])
         scores.append(spl(info["success"], info["shortest_path"], info["path_length"]))
+        final.append(info["geodesic_distance"])
     env.close()
-    return {"success": float(np.mean(success)), "spl": float(np.mean(scores))}
+    return {
+        "success": float(np.mean(success)),
+        "spl": float(np.mean(scores)),
+        "final_distance": float(np.mean(final)),
+    }
+
+
+def _write_atomic(path: Path, write) -> None:
+    """``write(tmp)`` then rename ``tmp`` to ``path``: readers never see half a file."""
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def save_curve(curve: list[dict[str, float]], path: Path) -> None:
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=FIELDS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(curve)
+    _write_atomic(path, lambda tmp: tmp.write_text(text.getvalue()))
+
+
+def load_curve(path: Path) -> list[dict[str, float]]:
+    if not path.exists():
+        return []
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if rows and set(rows[0]) != set(FIELDS):
+        raise ValueError(
+            f"{path} is not a learning curve: columns {sorted(rows[0])}, expected {FIELDS}"
+        )
+    return [{k: float(v) for k, v in row.items()} for row in rows]
 
 
 def train(args: Args) -> list[dict[str, float]]:
-    """Train PPO, evaluating every ``eval_every`` steps; returns the learning curve."""
+    """Train PPO (resuming from ``out`` when it holds a checkpoint), evaluating and
+    checkpointing every ``eval_every`` steps; returns the learning curve."""
+    import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env
+    from tqdm import tqdm
 
+    if args.reward not in ("geodesic", "sparse"):
+        raise ValueError(f"reward must be 'geodesic' or 'sparse', got {args.reward!r}")
+    for name in (
+        "total_timesteps", "eval_every", "eval_episodes", "n_envs", "threads", "history",
+        "history_stride",
+    ):  # fmt: skip
+        if getattr(args, name) < 1:
+            raise ValueError(f"{name} must be at least 1, got {getattr(args, name)!r}")
+    torch.set_num_threads(args.threads)
     args.out.mkdir(parents=True, exist_ok=True)
     venv = make_vec_env(lambda: make_env(args), n_envs=args.n_envs, seed=args.seed)
-    model = PPO(
-        "MlpPolicy",
-        venv,
-        n_steps=args.n_steps,
-        batch_size=args.batch_size,
-        learning_rate=args.learning_rate,
-        gamma=0.99,
-        gae_lambda=0.95,
-        ent_coef=args.ent_coef,
-        clip_range=args.clip_range,
-        seed=args.seed,
-        device="cpu",
-        verbose=0,
-    )
-    curve: list[dict[str, float]] = []
+    policy = "MlpPolicy" if args.field is not None else "CnnPolicy"
+    checkpoint = args.out / CHECKPOINT
+    curve = load_curve(args.out / CURVE)
+    if checkpoint.exists():
+        # our own file, written by this script: SB3's loader unpickles parts of it
+        model = PPO.load(checkpoint, env=venv, device="cpu")
+    else:
+        model = PPO(
+            policy,
+            venv,
+            n_steps=args.n_steps,
+            batch_size=args.batch_size,
+            n_epochs=args.n_epochs,
+            learning_rate=args.learning_rate,
+            gamma=0.99,
+            gae_lambda=0.95,
+            ent_coef=args.ent_coef,
+            clip_range=args.clip_range,
+            seed=args.seed,
+            device="cpu",
+            verbose=0,
+        )
+        curve = []
+    before = curve[-1]["seconds"] if curve else 0.0  # wall time of earlier sessions
     started = time.perf_counter()
 
-    class Evaluate(BaseCallback):
+    def record() -> None:
+        score = evaluate(model, args)
+        seconds = round(before + time.perf_counter() - started, 1)
+        curve.append({"steps": model.num_timesteps, **score, "seconds": seconds})
+        bar.write(
+            f"{model.num_timesteps:>9} steps  success {score['success']:.2f}  "
+            f"SPL {score['spl']:.2f}  final distance {score['final_distance']:.2f} m"
+        )
+        _write_atomic(checkpoint, model.save)
+        save_curve(curve, args.out / CURVE)
+
+    class Progress(BaseCallback):
         def _on_step(self) -> bool:
-            if self.num_timesteps % args.eval_every < args.n_envs:
-                score = evaluate(self.model, args)
-                curve.append(
-                    {"steps": self.num_timesteps, **score, "seconds": time.perf_counter() - started}
-                )
-                print(
-                    f"{self.num_timesteps:>9} steps  success {score['success']:.2f}  "
-                    f"SPL {score['spl']:.2f}",
-                    flush=True,
-                )
+            bar.update(self.training_env.num_envs)
+            if self.num_timesteps % args.eval_every < self.training_env.num_envs:
+                record()
             return True
 
-    model.learn(total_timesteps=args.total_timesteps, callback=Evaluate(), progress_bar=True)
-    curve.append(
-        {
-            "steps": model.num_timesteps,
-            **evaluate(model, args),
-            "seconds": time.perf_counter() - started,
-        }
-    )
+    remaining = args.total_timesteps - model.num_timesteps
+    with tqdm(
+        total=args.total_timesteps,
+        initial=model.num_timesteps,
+        disable=not args.progress,
+        desc=f"PPO {policy}",
+        unit="step",
+    ) as bar:
+        if not curve:
+            record()  # the untrained policy: the curve's first point
+        if remaining > 0:
+            model.learn(total_timesteps=remaining, callback=Progress(), reset_num_timesteps=False)
+            if curve[-1]["steps"] != model.num_timesteps:
+                record()
     model.save(args.out / "model.zip")
-    with open(args.out / "learning_curve.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(curve[0]))
-        writer.writeheader()
-        writer.writerows(curve)
+    venv.close()
+    plot_curve(curve, args.out / "learning_curve.png", title=str(args.field or "pixels"))
     return curve
+
+
+def plot_curve(curve: list[dict[str, float]], path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5, 3.2))
+    steps = [c["steps"] for c in curve]
+    ax.plot(steps, [c["success"] for c in curve], "o-", label="success")
+    ax.plot(steps, [c["spl"] for c in curve], "s--", label="SPL")
+    ax.set(xlabel="training steps", ylabel="rate", ylim=(-0.02, 1.02), title=title)
+    ax.legend()
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
 
 
 if __name__ == "__main__":

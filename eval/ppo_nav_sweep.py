@@ -1,0 +1,149 @@
+"""PPO on every observation of the navigation benchmark, several seeds, one figure and one table.
+
+Runs ``baselines/agents/ppo_nav.py`` for each (method, seed), ``workers`` processes at a time
+(one torch thread each), on the feature fields that ``sfa-gym navigate`` wrote, and on rendered
+panoramas for ``pixels`` (CnnPolicy, with its own smaller budget). Each run keeps its learning
+curve and checkpoint in ``out/<method>-<seed>/`` and resumes there when started again; finished
+runs are skipped. Then it plots success and SPL against training steps (mean over seeds, with
+the range) to ``out/learning_curves.png`` and writes the last evaluation of each run to
+``out/summary.json``.
+
+Usage (from the repository root)::
+
+    sfa-gym navigate --out results/nav --baselines baselines/
+    .venv/bin/python eval/ppo_nav_sweep.py --nav results/nav --out results/ppo
+    .venv/bin/python eval/ppo_nav_sweep.py --out results/ppo --plot-only
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+AGENT = ROOT / "baselines" / "agents" / "ppo_nav.py"
+METHODS = ["sfa", "fft_magnitude", "band_means", "pca", "raw_pixels", "pixels"]
+
+
+def read_curve(run: Path) -> list[dict[str, float]]:
+    path = run / "learning_curve.csv"
+    if not path.exists():
+        return []
+    with open(path, newline="") as f:
+        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+
+
+def run_one(args: argparse.Namespace, method: str, seed: int) -> Path:
+    run = args.out / f"{method}-{seed}"
+    budget = args.pixels_timesteps if method == "pixels" else args.total_timesteps
+    curve = read_curve(run)
+    if curve and curve[-1]["steps"] >= budget:
+        return run
+    command = [
+        sys.executable, str(AGENT), "--out", str(run), "--seed", str(seed),
+        "--env-id", args.env, "--world-seed", str(args.world_seed),
+        "--total-timesteps", str(budget), "--eval-episodes", str(args.eval_episodes),
+        "--eval-every", str(args.eval_every if method != "pixels" else budget // 5),
+        "--no-progress",
+    ]  # fmt: skip
+    if method != "pixels":
+        command += ["--field", str(args.nav / f"field_{method}.npz")]
+    run.mkdir(parents=True, exist_ok=True)
+    with open(run / "log.txt", "a") as log:
+        done = subprocess.run(command, stdout=log, stderr=subprocess.STDOUT, check=False)
+    status = "done" if done.returncode == 0 else f"FAILED (exit {done.returncode})"
+    print(f"{run.name}: {status}", flush=True)
+    return run
+
+
+def summarize(out: Path, methods: list[str]) -> dict[str, dict[str, float]]:
+    """Last evaluation of each run, and mean and range over the seeds of each method."""
+    summary: dict[str, dict[str, float]] = {}
+    for method in methods:
+        last = [c[-1] for run in sorted(out.glob(f"{method}-*")) if (c := read_curve(run))]
+        if not last:
+            continue
+        success = np.array([c["success"] for c in last])
+        spl = np.array([c["spl"] for c in last])
+        summary[method] = {
+            "seeds": len(last),
+            "steps": min(c["steps"] for c in last),
+            "success": round(float(success.mean()), 3),
+            "success_min": float(success.min()),
+            "success_max": float(success.max()),
+            "spl": round(float(spl.mean()), 3),
+            "hours": round(max(c["seconds"] for c in last) / 3600, 2),
+        }
+    return summary
+
+
+def plot(out: Path, methods: list[str]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), sharex=True)
+    for method in methods:
+        curves = [c for run in sorted(out.glob(f"{method}-*")) if (c := read_curve(run))]
+        if not curves:
+            continue
+        n = min(len(c) for c in curves)  # runs cut short are plotted as far as all got
+        steps = np.array([row["steps"] for row in curves[0][:n]])
+        for ax, key in zip(axes, ("success", "spl"), strict=True):
+            values = np.array([[row[key] for row in c[:n]] for c in curves])
+            line = ax.plot(steps, values.mean(axis=0), label=f"{method} ({len(curves)} seeds)")
+            ax.fill_between(steps, values.min(axis=0), values.max(axis=0), alpha=0.2,
+                            color=line[0].get_color())  # fmt: skip
+    for ax, name in zip(axes, ("success (arrival)", "SPL"), strict=True):
+        ax.set(xlabel="training steps", ylabel=name, ylim=(-0.02, 1.02))
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle("PPO on goal-conditioned features: mean over seeds, range shaded")
+    fig.savefig(out / "learning_curves.png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--nav", type=Path, default=Path("results/nav"), help="navigate's output")
+    parser.add_argument("--out", type=Path, default=Path("results/ppo"), help="output folder")
+    parser.add_argument("--methods", nargs="+", default=METHODS, choices=METHODS)
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--env", default="sfa_gym/OmniRoverNav-v0", help="navigation env id")
+    parser.add_argument("--world-seed", type=int, default=0, help="the fields' world seed")
+    parser.add_argument("--total-timesteps", type=int, default=1_000_000)
+    parser.add_argument("--pixels-timesteps", type=int, default=100_000, help="CnnPolicy budget")
+    parser.add_argument("--eval-every", type=int, default=100_000)
+    parser.add_argument("--eval-episodes", type=int, default=50)
+    parser.add_argument("--workers", type=int, default=2, help="runs at a time")
+    parser.add_argument("--plot-only", action="store_true", help="plot what the runs hold")
+    args = parser.parse_args()
+
+    jobs = [(m, s) for s in args.seeds for m in args.methods]
+    if not args.plot_only:
+        for method in {m for m, _ in jobs} - {"pixels"}:
+            if not (args.nav / f"field_{method}.npz").exists():
+                parser.error(f"no field for {method!r} in {args.nav}: run sfa-gym navigate first")
+        with ThreadPoolExecutor(args.workers) as pool:
+            list(pool.map(lambda job: run_one(args, *job), jobs))
+    plot(args.out, args.methods)
+    summary = summarize(args.out, args.methods)
+    (args.out / "summary.json").write_text(json.dumps(summary, indent=1))
+    print(f"{'method':<15}{'seeds':>6}{'steps':>10}{'success':>9}{'range':>13}{'SPL':>7}")
+    for method, s in summary.items():
+        print(
+            f"{method:<15}{s['seeds']:>6}{s['steps']:>10}{s['success']:>9.2f}"
+            f"{s['success_min']:>7.2f}-{s['success_max']:.2f}{s['spl']:>7.2f}"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,143 @@
+"""The PPO navigation agent (baselines/agents/ppo_nav.py): it trains on a real feature field and
+on rendered panoramas, writes its learning curve and checkpoint, resumes, and refuses bad
+arguments. Small budgets: these check the machinery, not the agent's skill (the sweep in
+eval/ppo_nav_sweep.py measures that)."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3", reason="the test extra installs stable-baselines3")
+
+from sfa_gym.localization.methods import load_method_file  # noqa: E402
+from sfa_gym.navigation.field import FeatureField  # noqa: E402
+from sfa_gym.sim.env import OmniRoverEnv  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _agent():
+    spec = importlib.util.spec_from_file_location("ppo_nav", ROOT / "baselines/agents/ppo_nav.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def agent():
+    return _agent()
+
+
+@pytest.fixture(scope="module")
+def field_path(tmp_path_factory) -> Path:
+    """Band means of rendered panoramas on a 0.5 m grid of the open arena: a real, coarse field."""
+    env = OmniRoverEnv("paper_sim", 0, "paper_sim")
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    xmin, xmax, ymin, ymax = env.arena_bounds
+    train = np.stack([
+        env.reset(options={"pose": (x, y, 0.0)})[0]
+        for x, y in rng.uniform((xmin, ymin), (xmax, ymax), size=(20, 2))
+    ])  # fmt: skip
+    method = load_method_file(ROOT / "baselines/band_means.py")().fit(train)
+    field = FeatureField.build(env, method, spacing=0.5, progress=False)
+    env.close()
+    path = tmp_path_factory.mktemp("field") / "field_band_means.npz"
+    field.save(path)
+    return path
+
+
+def _small(agent, out: Path, **kwargs):
+    settings = dict(
+        out=out, total_timesteps=512, n_envs=2, n_steps=64, batch_size=64, n_epochs=2,
+        eval_every=256, eval_episodes=2, progress=False,
+    )  # fmt: skip
+    return agent.Args(**{**settings, **kwargs})
+
+
+def test_trains_on_a_feature_field_writes_its_curve_and_resumes(agent, field_path, tmp_path):
+    from stable_baselines3 import PPO
+
+    args = _small(agent, tmp_path / "run", field=field_path)
+    curve = agent.train(args)
+    assert [row["steps"] for row in curve] == [0, 256, 512]
+    for row in curve:
+        assert 0 <= row["success"] <= 1 and 0 <= row["spl"] <= row["success"]
+        assert row["final_distance"] >= 0
+    assert agent.load_curve(args.out / agent.CURVE) == curve  # floats round-trip exactly
+    assert (args.out / "learning_curve.png").stat().st_size > 0
+    model = PPO.load(args.out / "model.zip", device="cpu")  # our own file
+    assert model.num_timesteps == 512
+    k = FeatureField.load(field_path).n_features
+    assert model.observation_space.shape == (args.history * (k + 2) + k,)
+    # no temporary files are left behind
+    assert sorted(p.name for p in args.out.iterdir()) == sorted(
+        [agent.CHECKPOINT, agent.CURVE, "learning_curve.png", "model.zip"]
+    )
+
+    # started again with a larger budget, it continues from the checkpoint
+    resumed = agent.train(dataclasses.replace(args, total_timesteps=1024))
+    assert resumed[:3] == curve
+    assert [row["steps"] for row in resumed[3:]] == [768, 1024]
+    assert resumed[-1]["seconds"] >= curve[-1]["seconds"]
+
+
+def test_the_memory_holds_standardised_features_and_past_positions_in_the_body_frame(
+    agent, field_path
+):
+    field = FeatureField.load(field_path)
+    k = field.n_features
+    memory = agent.FeatureHistory(field, history=3, stride=1)
+    values = field.values.reshape(-1, k)
+    goal = np.stack([memory({"features": v, "goal_features": v}, {"odometry": np.zeros(3)}, True)
+                     for v in values])[:, :k]  # fmt: skip
+    np.testing.assert_allclose(goal.mean(axis=0), 0, atol=1e-5)
+    np.testing.assert_allclose(goal.std(axis=0), 1, atol=1e-4)
+
+    # drive east 1 m, then turn to face north: the start is then 1 m to the rover's left
+    f = [values[0], values[1], values[2]]
+    memory({"features": f[0], "goal_features": f[0]}, {"odometry": np.zeros(3)}, True)
+    memory({"features": f[1], "goal_features": f[0]}, {"odometry": np.array([1.0, 0, 0])}, False)
+    out = memory(
+        {"features": f[2], "goal_features": f[0]},
+        {"odometry": np.array([1.0, 0, np.pi / 2])},
+        False,
+    )
+    assert out.shape == memory.space.shape == (3 * (k + 2) + k,)
+    blocks = out[k:].reshape(3, k + 2)  # the current step first
+    for block, features in zip(blocks, f[::-1], strict=True):
+        np.testing.assert_allclose(block[:k], memory.standardise(features), rtol=1e-6)
+    np.testing.assert_allclose(blocks[:, k:], [[0, 0], [0, 0], [0, 1]], atol=1e-6)
+
+
+def test_trains_a_cnn_on_rendered_panoramas(agent, tmp_path):
+    args = _small(agent, tmp_path / "pixels", total_timesteps=64, n_envs=1, n_steps=64,
+                  eval_every=64, eval_episodes=1)  # fmt: skip
+    curve = agent.train(args)
+    assert [row["steps"] for row in curve] == [0, 64]
+    env = agent.make_env(args)
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (40, 350, 6) and obs.dtype == np.uint8
+    env.close()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [({"reward": "dense"}, "reward"), ({"eval_every": 0}, "eval_every"), ({"n_envs": 0}, "n_envs")],
+)
+def test_bad_arguments_are_refused(agent, tmp_path, kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        agent.train(_small(agent, tmp_path, **kwargs))
+
+
+def test_a_file_that_is_not_a_learning_curve_is_refused(agent, tmp_path):
+    (tmp_path / agent.CURVE).write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError, match="not a learning curve"):
+        agent.load_curve(tmp_path / agent.CURVE)
