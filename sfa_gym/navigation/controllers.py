@@ -102,7 +102,8 @@ class GradientSettings:
     """yaw rate per radian of heading error (1/s)"""
     stop_distance: float = 0.1
     """the controller stops when the running mean of the cost falls below the cost of being this
-    far (m) from the goal, plus the noise floor of the cost"""
+    far (m) from the goal along the direction where the cost rises slowest, plus the noise floor
+    of the cost"""
     stop_window: int = 3
     """steps in the running mean of the cost"""
     give_up: float = 6.0
@@ -133,7 +134,8 @@ class GradientController:
     pushed away from walls and obstacles its range sensor sees within ``influence``; a blocked
     direction is replaced by the nearest free one. Its speed follows the distance to the goal
     estimated from the cost and the fit's curvature. It stops when the running mean of the cost
-    falls below the cost of being ``stop_distance`` from the goal plus the fit's noise floor,
+    falls below the cost of being ``stop_distance`` from the goal in the direction where the cost
+    rises slowest (the smaller eigenvalue of ``J^T W J``) plus the fit's noise floor,
     and gives up (stops) after ``give_up`` metres without progress.
 
     Args:
@@ -254,7 +256,10 @@ class GradientController:
         step = -np.linalg.solve(metric + damping * np.eye(2), gradient)
         curvature = float(np.trace(metric)) / 2  # cost per m^2 of distance, on average
         distance = math.sqrt(max(cost - noise, 0.0) / curvature) if curvature > 0 else math.inf
-        stop_cost = s.stop_distance**2 * curvature + noise
+        # the stop threshold takes the flattest direction: near walls the features flatten
+        # across them, and the mean curvature would stop the rover short of a goal there
+        flattest = float(np.linalg.eigvalsh(metric)[0])
+        stop_cost = s.stop_distance**2 * flattest + noise
         self.estimate = {"cost": cost, "distance": distance, "stop_cost": stop_cost}
         if len(self._costs) == s.stop_window and np.mean(self._costs) < stop_cost:
             return self._stop()
