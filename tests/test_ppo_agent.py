@@ -76,7 +76,7 @@ def test_trains_on_a_feature_field_writes_its_curve_and_resumes(agent, field_pat
     model = PPO.load(args.out / "model.zip", device="cpu")  # our own file
     assert model.num_timesteps == 512
     k = FeatureField.load(field_path).n_features
-    assert model.observation_space.shape == (args.history * (k + 2) + k,)
+    assert model.observation_space.shape == (2 * k + (args.history - 1) * (k + 2),)
     # no temporary files are left behind
     assert sorted(p.name for p in args.out.iterdir()) == sorted(
         [agent.CHECKPOINT, agent.CURVE, "learning_curve.png", "model.zip"]
@@ -89,32 +89,31 @@ def test_trains_on_a_feature_field_writes_its_curve_and_resumes(agent, field_pat
     assert resumed[-1]["seconds"] >= curve[-1]["seconds"]
 
 
-def test_the_memory_holds_standardised_features_and_past_positions_in_the_body_frame(
-    agent, field_path
-):
+def test_the_memory_holds_feature_changes_beside_the_moves_in_the_body_frame(agent, field_path):
     field = FeatureField.load(field_path)
     k = field.n_features
     memory = agent.FeatureHistory(field, history=3, stride=1)
     values = field.values.reshape(-1, k)
-    goal = np.stack([memory({"features": v, "goal_features": v}, {"odometry": np.zeros(3)}, True)
-                     for v in values])[:, :k]  # fmt: skip
-    np.testing.assert_allclose(goal.mean(axis=0), 0, atol=1e-5)
-    np.testing.assert_allclose(goal.std(axis=0), 1, atol=1e-4)
+    now = np.stack([memory({"features": v, "goal_features": v}, {"odometry": np.zeros(3)}, True)
+                    for v in values])[:, k : 2 * k]  # fmt: skip
+    np.testing.assert_allclose(now.mean(axis=0), 0, atol=1e-5)  # standardised over the field
+    np.testing.assert_allclose(now.std(axis=0), 1, atol=1e-4)
 
-    # drive east 1 m, then turn to face north: the start is then 1 m to the rover's left
-    f = [values[0], values[1], values[2]]
-    memory({"features": f[0], "goal_features": f[0]}, {"odometry": np.zeros(3)}, True)
-    memory({"features": f[1], "goal_features": f[0]}, {"odometry": np.array([1.0, 0, 0])}, False)
+    # drive east 1 m, then turn to face north: that move went to the rover's right
+    f = [memory.standardise(v) for v in values[:4]]
+    goal = values[3]
+    memory({"features": values[0], "goal_features": goal}, {"odometry": np.zeros(3)}, True)
+    memory({"features": values[1], "goal_features": goal}, {"odometry": [1.0, 0, 0]}, False)
     out = memory(
-        {"features": f[2], "goal_features": f[0]},
-        {"odometry": np.array([1.0, 0, np.pi / 2])},
-        False,
+        {"features": values[2], "goal_features": goal}, {"odometry": [1.0, 0, np.pi / 2]}, False
     )
-    assert out.shape == memory.space.shape == (3 * (k + 2) + k,)
-    blocks = out[k:].reshape(3, k + 2)  # the current step first
-    for block, features in zip(blocks, f[::-1], strict=True):
-        np.testing.assert_allclose(block[:k], memory.standardise(features), rtol=1e-6)
-    np.testing.assert_allclose(blocks[:, k:], [[0, 0], [0, 0], [0, 1]], atol=1e-6)
+    assert out.shape == memory.space.shape == (2 * k + 2 * (k + 2),)
+    np.testing.assert_allclose(out[:k], f[3] - f[2], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(out[k : 2 * k], f[2], rtol=1e-5, atol=1e-6)
+    blocks = out[2 * k :].reshape(2, k + 2)  # the latest move first
+    np.testing.assert_allclose(blocks[0, :k], f[2] - f[1], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(blocks[1, :k], f[2] - f[0], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(blocks[:, k:], [[0, 0], [0, -1]], atol=1e-6)
 
 
 def test_trains_a_cnn_on_rendered_panoramas(agent, tmp_path):

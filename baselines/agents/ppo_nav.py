@@ -118,11 +118,13 @@ class FeatureHistory:
 
     The features are rotation-averaged: they say where the rover is, not which way it faces, so
     a memoryless policy cannot tell which way to drive. Like the gradient controller, the agent
-    therefore sees its recent past: for the current step and ``history - 1`` earlier ones
-    (``stride`` steps apart), the features then and where the rover was then, from its wheel
-    odometry, in its current body frame (m); and the goal's features. Features are
-    standardised by their mean and spread over the field's nodes (no labels), so that methods
-    with different scales meet the same MLP. Length ``history * (k + 2) + k``.
+    therefore sees its recent past: how the features changed over each of its last
+    ``history - 1`` moves (``stride``, ``2 stride``, ... steps back) beside that move, from the
+    wheel odometry, in the current body frame (m); the current features; and the goal's minus
+    the current ones. Differences, not values, so that a gradient is a few multiplications
+    away. Features are standardised by their mean and spread over the field's nodes (no
+    labels), so that methods with different scales meet the same MLP. Length
+    ``2 k + (history - 1) (k + 2)``.
     """
 
     def __init__(self, field: Any, history: int, stride: int) -> None:
@@ -132,7 +134,7 @@ class FeatureHistory:
         self.mean = values.mean(axis=0)
         self.scale = np.maximum(values.std(axis=0), 1e-12)
         self.history, self.stride = history, stride
-        n = history * (field.n_features + 2) + field.n_features
+        n = 2 * field.n_features + (history - 1) * (field.n_features + 2)
         self.space = gym.spaces.Box(-np.inf, np.inf, (n,), np.float32)
         self._past: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=(history - 1) * stride + 1)
 
@@ -144,11 +146,13 @@ class FeatureHistory:
         if new:  # an episode starts: the past is the present
             self._past.extend([entry] * self._past.maxlen)
         self._past.append(entry)
-        x, y, yaw = entry[1]
+        now, (x, y, yaw) = entry
         turn = np.array([[np.cos(yaw), np.sin(yaw)], [-np.sin(yaw), np.cos(yaw)]])
-        parts = [self.standardise(obs["goal_features"])]
-        for features, pose in list(self._past)[:: -self.stride]:
-            parts += [features, turn @ (pose[:2] - (x, y))]
+        # differences, not values: how far the goal is in feature space, and how the features
+        # changed along each recent move, side by side with that move
+        parts = [self.standardise(obs["goal_features"]) - now, now]
+        for features, pose in list(self._past)[-1 - self.stride :: -self.stride]:
+            parts += [now - features, turn @ ((x, y) - pose[:2])]
         return np.concatenate(parts).astype(np.float32)
 
 
@@ -178,10 +182,14 @@ def make_env(args: Args):
     if args.field is not None:
         field = FeatureField.load(args.field)
         env = gym.make(args.env_id, feature_field=field, reward=args.reward, **kwargs)
-        return WithHistory(env, FeatureHistory(field, args.history, args.history_stride))
-    env = gym.make(args.env_id, reward=args.reward, **kwargs)
-    transform = StackedPanoramas(env.observation_space)
-    return gym.wrappers.TransformObservation(env, transform, transform.space)
+        env = WithHistory(env, FeatureHistory(field, args.history, args.history_stride))
+    else:
+        env = gym.make(args.env_id, reward=args.reward, **kwargs)
+        transform = StackedPanoramas(env.observation_space)
+        env = gym.wrappers.TransformObservation(env, transform, transform.space)
+    # PPO's Gaussian starts with unit spread: on the raw (+-0.4 m/s, +-1 rad/s) box most
+    # speeds would be clipped to the limits
+    return gym.wrappers.RescaleAction(env, -1.0, 1.0)
 
 
 def evaluate(model: Any, args: Args) -> dict[str, float]:
