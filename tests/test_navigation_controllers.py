@@ -12,7 +12,7 @@ import pytest
 import sfa_gym  # noqa: F401  (registers the ids)
 from sfa_gym.experiments.navigation import NavigationExperiment, _training_panoramas
 from sfa_gym.features import rotation_averaged_features
-from sfa_gym.navigation.controllers import GradientController, slowness_weights
+from sfa_gym.navigation.controllers import GradientController, GradientSettings, slowness_weights
 from sfa_gym.navigation.evaluate import run_episode
 from sfa_gym.navigation.field import FeatureField
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
@@ -48,6 +48,13 @@ def test_slowness_weights_known_answer():
 def test_slowness_weights_refuse_bad_input(sequence, power, match):
     with pytest.raises(ValueError, match=match):
         slowness_weights(sequence, power)
+
+
+def test_controller_refuses_bad_arguments():
+    with pytest.raises(ValueError, match="weights"):
+        GradientController([1.0, -1.0])
+    with pytest.raises(ValueError, match="stop_curvature must be 'flattest' or 'mean', got 'max'"):
+        GradientController([1.0], settings=GradientSettings(stop_curvature="max"))
 
 
 @pytest.fixture(scope="module")

@@ -104,6 +104,10 @@ class GradientSettings:
     """the controller stops when the running mean of the cost falls below the cost of being this
     far (m) from the goal along the direction where the cost rises slowest, plus the noise floor
     of the cost"""
+    stop_curvature: str = "flattest"
+    """curvature of the cost that sets the stop threshold: "flattest" (the smaller eigenvalue
+    of J^T W J: stop only when even the flattest direction says the goal is near) or "mean"
+    (half its trace)"""
     stop_window: int = 3
     """steps in the running mean of the cost"""
     give_up: float = 6.0
@@ -165,6 +169,11 @@ class GradientController:
         self.range_angles = np.asarray(range_angles, dtype=np.float64)
         self.v_max, self.w_max, self.dt = float(v_max), float(w_max), float(dt)
         self.settings = GradientSettings() if settings is None else settings
+        if self.settings.stop_curvature not in ("flattest", "mean"):
+            raise ValueError(
+                "settings.stop_curvature must be 'flattest' or 'mean', got "
+                f"{self.settings.stop_curvature!r}"
+            )
         self.rng = np.random.default_rng(seed)
 
     @classmethod
@@ -256,10 +265,12 @@ class GradientController:
         step = -np.linalg.solve(metric + damping * np.eye(2), gradient)
         curvature = float(np.trace(metric)) / 2  # cost per m^2 of distance, on average
         distance = math.sqrt(max(cost - noise, 0.0) / curvature) if curvature > 0 else math.inf
-        # the stop threshold takes the flattest direction: near walls the features flatten
-        # across them, and the mean curvature would stop the rover short of a goal there
-        flattest = float(np.linalg.eigvalsh(metric)[0])
-        stop_cost = s.stop_distance**2 * flattest + noise
+        if s.stop_curvature == "flattest":
+            # near walls the features flatten across them, and the mean curvature would stop
+            # the rover short of a goal there
+            stop_cost = s.stop_distance**2 * float(np.linalg.eigvalsh(metric)[0]) + noise
+        else:
+            stop_cost = s.stop_distance**2 * curvature + noise
         self.estimate = {"cost": cost, "distance": distance, "stop_cost": stop_cost}
         if len(self._costs) == s.stop_window and np.mean(self._costs) < stop_cost:
             return self._stop()
