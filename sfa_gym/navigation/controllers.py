@@ -108,6 +108,10 @@ class GradientSettings:
     """curvature of the cost that sets the stop threshold: "flattest" (the smaller eigenvalue
     of J^T W J: stop only when even the flattest direction says the goal is near) or "mean"
     (half its trace)"""
+    leave: float = 0.6
+    """metres driven straight away from the walls first, when the range sensor sees one closer
+    than ``influence`` during the first metre of an episode: along the walls the cost has a
+    strip of false minima that traps a rover starting there (0 switches it off)"""
     stop_window: int = 3
     """steps in the running mean of the cost"""
     give_up: float = 6.0
@@ -137,7 +141,9 @@ class GradientController:
     along it, weaving around it (``weave_deg``) so that consecutive moves are not collinear, and
     pushed away from walls and obstacles its range sensor sees within ``influence``; a blocked
     direction is replaced by the nearest free one. Its speed follows the distance to the goal
-    estimated from the cost and the fit's curvature. It stops when the running mean of the cost
+    estimated from the cost and the fit's curvature. Starting next to a wall (within
+    ``influence`` in the first metre), it first drives ``leave`` metres away from it: the cost
+    has false minima along the walls. It stops when the running mean of the cost
     falls below the cost of being ``stop_distance`` from the goal in the direction where the cost
     rises slowest (the smaller eigenvalue of ``J^T W J``) plus the fit's noise floor,
     and gives up (stops) after ``give_up`` metres without progress.
@@ -195,6 +201,7 @@ class GradientController:
         self._best = math.inf
         self._best_at = 0.0
         self._v = 0.0
+        self._leave: tuple[float, float] | None = None  # (direction, odometer at the start)
         self._phase = float(self.rng.uniform(0, math.tau))
         self.estimate: dict[str, float] = {}
 
@@ -254,6 +261,17 @@ class GradientController:
         if self._travelled - self._best_at > s.give_up:
             return self._stop()
 
+        ranges = np.asarray(info.get("range", ()), dtype=np.float64)
+        if self._leave is None and s.leave > 0 and self._travelled < 1.0 and ranges.size:
+            if ranges.min() < s.influence:
+                push = self._push(ranges, yaw)
+                self._leave = (math.atan2(push[1], push[0]), self._travelled)
+        if self._leave is not None and self._travelled - self._leave[1] < s.leave:
+            # a fixed direction, not the range readings of the moment: the sensor sees only
+            # ahead, and turning away from a wall would look like having left it
+            heading = self._unblocked(ranges, wrap_angle(self._leave[0] - yaw))
+            return self._drive(s.speed * max(math.cos(heading), 0.0), s.turn_gain * heading)
+
         fit = self._fit(position)
         if fit is None:
             # not enough spread yet: drive a curve to get it
@@ -275,7 +293,6 @@ class GradientController:
         if len(self._costs) == s.stop_window and np.mean(self._costs) < stop_cost:
             return self._stop()
 
-        ranges = np.asarray(info.get("range", ()), dtype=np.float64)
         direction = step / (np.linalg.norm(step) + 1e-12) + s.repel * self._push(ranges, yaw)
         weave = math.radians(s.weave_deg) * math.sin(
             self._phase + math.tau * self._travelled / s.weave_wavelength
