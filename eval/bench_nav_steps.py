@@ -49,8 +49,11 @@ from sfa_gym._files import write_json_atomic  # noqa: E402
 from sfa_gym.navigation.controllers import GradientController  # noqa: E402
 from sfa_gym.navigation.field import FeatureField  # noqa: E402
 
-
-ENVS = ["sfa_gym/OmniRoverNav-v0", "sfa_gym/OmniRoverNavObstacles-v0", "sfa_gym/OmniRoverNavMaze-v0"]
+ENVS = [
+    "sfa_gym/OmniRoverNav-v0",
+    "sfa_gym/OmniRoverNavObstacles-v0",
+    "sfa_gym/OmniRoverNavMaze-v0",
+]
 
 
 def random_field(env_id: str, spacing: float = 0.1, k: int = 8, seed: int = 0) -> FeatureField:

@@ -2,11 +2,12 @@
 
 Runs ``baselines/agents/ppo_nav.py`` for each (method, seed), ``workers`` processes at a time
 (one torch thread each), on the feature fields that ``sfa-gym navigate`` wrote, and on rendered
-panoramas for ``pixels`` (CnnPolicy, with its own smaller budget). Each run keeps its learning
-curve and checkpoint in ``out/<method>-<seed>/`` and resumes there when started again; finished
-runs are skipped. Then it plots success and SPL against training steps (mean over seeds, with
-the range) to ``out/learning_curves.png`` and writes the last evaluation of each run to
-``out/summary.json``.
+panoramas for ``pixels`` (CnnPolicy, with its own smaller budget), and ``oracle`` (the goal's
+position relative to the rover from the ground truth: the upper bound, small budget). Each run
+keeps its learning curve and checkpoint in ``out/<method>-<seed>/`` and resumes there when
+started again; finished runs are skipped. Then it plots success and SPL against training steps
+(mean over seeds, with the range) to ``out/learning_curves.png`` and writes the last
+evaluation of each run to ``out/summary.json``.
 
 Usage (from the repository root)::
 
@@ -29,7 +30,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 AGENT = ROOT / "baselines" / "agents" / "ppo_nav.py"
-METHODS = ["sfa", "fft_magnitude", "band_means", "pca", "raw_pixels", "pixels"]
+METHODS = ["sfa", "fft_magnitude", "band_means", "pca", "raw_pixels", "pixels", "oracle"]
 
 
 def read_curve(run: Path) -> list[dict[str, float]]:
@@ -42,7 +43,9 @@ def read_curve(run: Path) -> list[dict[str, float]]:
 
 def run_one(args: argparse.Namespace, method: str, seed: int) -> Path:
     run = args.out / f"{method}-{seed}"
-    budget = args.pixels_timesteps if method == "pixels" else args.total_timesteps
+    budget = {"pixels": args.pixels_timesteps, "oracle": args.oracle_timesteps}.get(
+        method, args.total_timesteps
+    )
     curve = read_curve(run)
     if curve and curve[-1]["steps"] >= budget:
         return run
@@ -50,10 +53,12 @@ def run_one(args: argparse.Namespace, method: str, seed: int) -> Path:
         sys.executable, str(AGENT), "--out", str(run), "--seed", str(seed),
         "--env-id", args.env, "--world-seed", str(args.world_seed),
         "--total-timesteps", str(budget), "--eval-episodes", str(args.eval_episodes),
-        "--eval-every", str(args.eval_every if method != "pixels" else budget // 5),
+        "--eval-every", str(min(args.eval_every, budget // 5)),
         "--no-progress",
     ]  # fmt: skip
-    if method != "pixels":
+    if method == "oracle":  # ground truth; SFA's field only spares the rendering
+        command += ["--oracle", "--field", str(args.nav / "field_sfa.npz")]
+    elif method != "pixels":
         command += ["--field", str(args.nav / f"field_{method}.npz")]
     run.mkdir(parents=True, exist_ok=True)
     with open(run / "log.txt", "a") as log:
@@ -121,6 +126,7 @@ def main() -> None:
     parser.add_argument("--world-seed", type=int, default=0, help="the fields' world seed")
     parser.add_argument("--total-timesteps", type=int, default=1_000_000)
     parser.add_argument("--pixels-timesteps", type=int, default=100_000, help="CnnPolicy budget")
+    parser.add_argument("--oracle-timesteps", type=int, default=200_000, help="oracle budget")
     parser.add_argument("--eval-every", type=int, default=100_000)
     parser.add_argument("--eval-episodes", type=int, default=50)
     parser.add_argument("--workers", type=int, default=2, help="runs at a time")
@@ -129,7 +135,7 @@ def main() -> None:
 
     jobs = [(m, s) for s in args.seeds for m in args.methods]
     if not args.plot_only:
-        for method in {m for m, _ in jobs} - {"pixels"}:
+        for method in {m if m != "oracle" else "sfa" for m, _ in jobs} - {"pixels"}:
             if not (args.nav / f"field_{method}.npz").exists():
                 parser.error(f"no field for {method!r} in {args.nav}: run sfa-gym navigate first")
         with ThreadPoolExecutor(args.workers) as pool:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import math
 import sys
 from pathlib import Path
 
@@ -140,3 +141,13 @@ def test_a_file_that_is_not_a_learning_curve_is_refused(agent, tmp_path):
     (tmp_path / agent.CURVE).write_text("a,b\n1,2\n")
     with pytest.raises(ValueError, match="not a learning curve"):
         agent.load_curve(tmp_path / agent.CURVE)
+
+
+def test_the_oracle_observes_the_goal_in_the_body_frame(agent, field_path, tmp_path):
+    env = agent.make_env(_small(agent, tmp_path, field=field_path, oracle=True))
+    obs, _ = env.reset(seed=0, options={"start": (0.0, 0.0, math.pi / 2), "goal": (1.0, 0.5, 0)})
+    # facing north, the goal 1 m east and 0.5 m north is 0.5 m ahead and 1 m to the right
+    np.testing.assert_allclose(obs, [0.5, -1.0, 0.0, 1.0], atol=1e-3)
+    env.close()
+    with pytest.raises(ValueError, match="oracle needs a field"):
+        agent.make_env(_small(agent, tmp_path, oracle=True))

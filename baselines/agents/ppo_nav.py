@@ -11,6 +11,9 @@ Two observations, one agent:
 * **pixels** (no ``--field``): the rendered current and goal panoramas stacked along the
   channels, ``(H, W, 6)`` uint8, into SB3's ``CnnPolicy`` (NatureCNN). Rendering costs ~7 ms a
   step, so this agent gets a smaller step budget: say so when you report it.
+* **oracle** (``--oracle``, with a field to skip rendering): the goal's position relative to
+  the rover from the ground truth: an upper bound that shows the reward and the episodes are
+  learnable, not a robot's view.
 
 The action is ``(v, w)``; the episode ends on arrival within the success radius
 (``stop_action=False``): a continuous stop action would end most early episodes at random.
@@ -94,6 +97,9 @@ class Args:
     """PPO clip range"""
     threads: int = 1
     """torch threads (1: several runs share the cores without contention)"""
+    oracle: bool = False
+    """upper bound: observe the goal's position relative to the rover (ground truth) instead
+    of features (the field only spares the rendering)"""
     history: int = 8
     """feature agents see this many recent steps (features and odometry positions)"""
     history_stride: int = 2
@@ -156,6 +162,30 @@ class FeatureHistory:
         return np.concatenate(parts).astype(np.float32)
 
 
+class GoalVector(gym.ObservationWrapper):
+    """Upper bound, not a robot's view: the goal's position relative to the rover in its body
+    frame (m), from the ground truth in ``info``, and the rover's heading as (cos, sin)."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (4,), np.float32)
+
+    def reset(self, **kwargs):
+        _, info = self.env.reset(**kwargs)
+        return self.vector(info), info
+
+    def step(self, action):
+        _, reward, terminated, truncated, info = self.env.step(action)
+        return self.vector(info), reward, terminated, truncated, info
+
+    @staticmethod
+    def vector(info: dict[str, Any]) -> np.ndarray:
+        yaw = info["yaw"]
+        dx, dy = info["goal"][0] - info["x"], info["goal"][1] - info["y"]
+        c, s = np.cos(yaw), np.sin(yaw)
+        return np.array([c * dx + s * dy, c * dy - s * dx, c, s], dtype=np.float32)
+
+
 class WithHistory(gym.Wrapper):
     """Gives the env the observation of a :class:`FeatureHistory`."""
 
@@ -179,7 +209,12 @@ def make_env(args: Args):
     from sfa_gym.navigation.field import FeatureField
 
     kwargs: dict[str, Any] = {"world_seed": args.world_seed, "stop_action": False}
-    if args.field is not None:
+    if args.oracle:
+        if args.field is None:
+            raise ValueError("oracle needs a field: the env steps physics only, without pixels")
+        env = GoalVector(gym.make(args.env_id, feature_field=str(args.field), reward=args.reward,
+                                  **kwargs))  # fmt: skip
+    elif args.field is not None:
         field = FeatureField.load(args.field)
         env = gym.make(args.env_id, feature_field=field, reward=args.reward, **kwargs)
         env = WithHistory(env, FeatureHistory(field, args.history, args.history_stride))
@@ -327,7 +362,11 @@ def train(args: Args) -> list[dict[str, float]]:
                 record()
     model.save(args.out / "model.zip")
     venv.close()
-    plot_curve(curve, args.out / "learning_curve.png", title=str(args.field or "pixels"))
+    plot_curve(
+        curve,
+        args.out / "learning_curve.png",
+        title="oracle" if args.oracle else str(args.field or "pixels"),
+    )
     return curve
 
 
