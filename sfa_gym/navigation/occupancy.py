@@ -223,10 +223,6 @@ class OccupancyGrid:
         return units * self.resolution + np.asarray(self.origin)
 
     @cached_property
-    def _all_free(self) -> bool:
-        return bool(self.free.all())
-
-    @cached_property
     def _padded(self) -> NDArray[np.bool_]:
         # a blocked border makes every lookup outside the grid blocked
         return np.pad(self.free, 1, constant_values=False)
@@ -465,6 +461,7 @@ class GeodesicField:
         self.grid = grid
         self.goal = g
         self._g = grid._units(g)
+        self._open_box = grid.bounds if grid.free.all() else None
         graph = self._graph = grid._graph
         corners = graph.corners
         k = len(corners)
@@ -494,13 +491,9 @@ class GeodesicField:
         """:meth:`distance` of the single point ``(x, y)`` (m), for per-step use. Where the grid
         has no blocked cell its free space is a rectangle that sees the goal from everywhere,
         and the distance of a point inside it is the straight line, computed without arrays."""
-        grid = self.grid
-        if grid._all_free:
-            xmin, ymin = grid.origin
-            ny, nx = grid.shape
-            r = grid.resolution
-            if xmin <= x <= xmin + nx * r and ymin <= y <= ymin + ny * r:
-                return math.hypot(x - self.goal[0], y - self.goal[1])
+        box = self._open_box
+        if box is not None and box[0] <= x <= box[1] and box[2] <= y <= box[3]:
+            return math.hypot(x - self.goal[0], y - self.goal[1])
         return float(self.distance(np.array([[x, y]]))[0])
 
     def path(self, start: ArrayLike) -> NDArray[np.float64]:
