@@ -68,11 +68,21 @@ def run_one(args: argparse.Namespace, method: str, seed: int) -> Path:
     return run
 
 
+def furthest_curves(out: Path, method: str) -> list[list[dict[str, float]]]:
+    """The learning curves of a method's runs that got furthest (runs still going are left out,
+    so that every seed counted had the same budget)."""
+    curves = [c for run in sorted(out.glob(f"{method}-*")) if (c := read_curve(run))]
+    if not curves:
+        return []
+    furthest = max(c[-1]["steps"] for c in curves)
+    return [c for c in curves if c[-1]["steps"] == furthest]
+
+
 def summarize(out: Path, methods: list[str]) -> dict[str, dict[str, float]]:
     """Last evaluation of each run, and mean and range over the seeds of each method."""
     summary: dict[str, dict[str, float]] = {}
     for method in methods:
-        last = [c[-1] for run in sorted(out.glob(f"{method}-*")) if (c := read_curve(run))]
+        last = [c[-1] for c in furthest_curves(out, method)]
         if not last:
             continue
         success = np.array([c["success"] for c in last])
@@ -97,21 +107,21 @@ def plot(out: Path, methods: list[str]) -> None:
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), sharex=True)
     for method in methods:
-        curves = [c for run in sorted(out.glob(f"{method}-*")) if (c := read_curve(run))]
+        curves = furthest_curves(out, method)
         if not curves:
             continue
-        n = min(len(c) for c in curves)  # runs cut short are plotted as far as all got
+        n = min(len(c) for c in curves)
         steps = np.array([row["steps"] for row in curves[0][:n]])
         for ax, key in zip(axes, ("success", "spl"), strict=True):
             values = np.array([[row[key] for row in c[:n]] for c in curves])
-            line = ax.plot(steps, values.mean(axis=0), label=f"{method} ({len(curves)} seeds)")
+            line = ax.plot(steps, values.mean(axis=0), label=f"{method} (seeds: {len(curves)})")
             ax.fill_between(steps, values.min(axis=0), values.max(axis=0), alpha=0.2,
                             color=line[0].get_color())  # fmt: skip
     for ax, name in zip(axes, ("success (arrival)", "SPL"), strict=True):
         ax.set(xlabel="training steps", ylabel=name, ylim=(-0.02, 1.02))
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
-    fig.suptitle("PPO on goal-conditioned features: mean over seeds, range shaded")
+    fig.suptitle("PPO in the navigation env: mean over seeds, range shaded")
     fig.savefig(out / "learning_curves.png", dpi=110, bbox_inches="tight")
     plt.close(fig)
 
