@@ -101,7 +101,8 @@ class Args:
     """upper bound: observe the goal's position relative to the rover (ground truth) instead
     of features (the field only spares the rendering)"""
     history: int = 8
-    """feature agents see this many recent steps (features and odometry positions)"""
+    """feature agents remember the current step and history - 1 earlier ones: the feature
+    change over each of those moves beside the move (odometry, body frame)"""
     history_stride: int = 2
     """steps between the remembered ones"""
     progress: bool = True
@@ -134,8 +135,6 @@ class FeatureHistory:
     """
 
     def __init__(self, field: Any, history: int, stride: int) -> None:
-        import gymnasium as gym
-
         values = np.asarray(field.values, dtype=np.float64).reshape(-1, field.n_features)
         self.mean = values.mean(axis=0)
         self.scale = np.maximum(values.std(axis=0), 1e-12)
@@ -162,7 +161,7 @@ class FeatureHistory:
         return np.concatenate(parts).astype(np.float32)
 
 
-class GoalVector(gym.ObservationWrapper):
+class GoalVector(gym.Wrapper):
     """Upper bound, not a robot's view: the goal's position relative to the rover in its body
     frame (m), from the ground truth in ``info``, and the rover's heading as (cos, sin)."""
 
