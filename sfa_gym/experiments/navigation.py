@@ -124,6 +124,7 @@ def _field(
     path: Path,
     config: NavigationExperiment,
     name: str,
+    weights: NDArray[np.float64],
     progress: bool,
 ):
     from sfa_gym.navigation.field import FeatureField
@@ -136,7 +137,12 @@ def _field(
         spacing=config.field_spacing,
         free=nav.occupancy.is_free,
         progress=progress,
-        model_info={"method": name},
+        # the cost weights travel with the field: agents trained on it later need them
+        model_info={
+            "method": name,
+            "cost_weights": weights.tolist(),
+            "weight_power": config.weight_power,
+        },
     )
     field.save(path)
     return field
@@ -204,9 +210,11 @@ def run_navigation_experiment(
     }
     weights: dict[str, NDArray[np.float64]] = {}
     for name, model in models.items():
-        field = _field(camera, nav, model, out / f"field_{name}.npz", config, name, progress)
         weights[name] = slowness_weights(
             rotation_averaged_features(model, train, step=1), config.weight_power
+        )
+        field = _field(
+            camera, nav, model, out / f"field_{name}.npz", config, name, weights[name], progress
         )
         env = gym.make(config.env_id, world_seed=config.world_seed, feature_field=field)
         runs: list[tuple[str, Any]] = []

@@ -30,8 +30,10 @@ __all__ = [
     "Controller",
     "GradientController",
     "GradientSettings",
+    "LocalLinearFit",
     "OracleController",
     "RandomController",
+    "gauss_newton_step",
     "slowness_weights",
 ]
 
@@ -126,6 +128,86 @@ class GradientSettings:
     """range (m) below which a reading pushes the rover away; the push grows linearly to 1 at 0"""
 
 
+class LocalLinearFit:
+    """The local linear model of the features around the rover, ``f(p) = a + J (p - p_now)``,
+    fitted by weighted least squares to the features and odometry positions of its recent moves:
+    what the gradient controller (and a learning agent) can know about the feature gradient
+    without a map.
+
+    One sample per centimetre of travel is kept, over ``window`` metres; a sample fades with the
+    distance travelled since it (``memory``); a prior keeps the Jacobian's unexplored directions
+    at their last estimate (``prior``), since the rover mostly moves along one direction.
+
+    Args:
+        weights: ``(k,)`` feature weights of the cost (for the fit's noise floor).
+        memory, window, prior: as in :class:`GradientSettings`.
+    """
+
+    def __init__(self, weights: NDArray, memory: float, window: float, prior: float) -> None:
+        self.weights = weights
+        self.memory, self.window, self.prior = memory, window, prior
+        self._positions: list[NDArray] = []
+        self._features: list[NDArray] = []
+        self._odometer: list[float] = []  # distance travelled when each sample was taken
+        self._last_position: NDArray | None = None
+        self._jacobian: NDArray | None = None
+        self.travelled = 0.0
+        """metres travelled since the start (odometry)"""
+
+    def remember(self, position: NDArray, features: NDArray) -> None:
+        """Add the features ``(k,)`` seen at the odometry position ``(2,)``."""
+        if self._last_position is not None:
+            self.travelled += float(np.linalg.norm(position - self._last_position))
+        self._last_position = position
+        if self._positions and np.linalg.norm(position - self._positions[-1]) < 0.01:
+            # turning on the spot adds no information: keep only the latest features there
+            self._positions[-1], self._features[-1] = position, features
+            self._odometer[-1] = self.travelled
+        else:
+            self._positions.append(position)
+            self._features.append(features)
+            self._odometer.append(self.travelled)
+        while self.travelled - self._odometer[0] > self.window:
+            del self._positions[0], self._features[0], self._odometer[0]
+
+    def fit(self) -> tuple[NDArray, NDArray, float] | None:
+        """``(a, J, noise floor of the cost)`` of the model around the last position, or None
+        while the first moves do not span the plane."""
+        if len(self._positions) < 4:
+            return None
+        p = np.array(self._positions) - self._last_position
+        f = np.array(self._features)
+        sw = np.exp(-(self.travelled - np.array(self._odometer)) / self.memory)
+        design = np.column_stack([np.ones(len(p)), p])
+        normal = design.T @ (sw[:, None] * design)
+        rhs = design.T @ (sw[:, None] * f)
+        if self._jacobian is None:
+            spread = np.linalg.eigvalsh(np.cov(p.T, aweights=sw))
+            if spread[0] < 0.02**2:  # the moves span less than a couple of cm across
+                return None
+        else:
+            strength = self.prior * sw.sum()
+            normal[1:, 1:] += strength * np.eye(2)
+            rhs[1:] += strength * self._jacobian.T
+        coef = np.linalg.solve(normal, rhs)
+        a, self._jacobian = coef[0], coef[1:].T
+        residual = f - design @ coef
+        noise = float(np.sum(sw[:, None] * self.weights * residual**2) / max(sw.sum() - 3, 1))
+        return a, self._jacobian, noise
+
+
+def gauss_newton_step(
+    a: NDArray, jacobian: NDArray, goal: NDArray, weights: NDArray, damping: float
+) -> NDArray:
+    """The damped Gauss-Newton step ``-(J^T W J + mu I)^-1 J^T W (a - g)`` (m, in the odometry
+    frame) towards the goal features ``g`` under the local linear model, ``mu`` = ``damping``
+    times the trace of ``J^T W J``."""
+    metric = jacobian.T @ (weights[:, None] * jacobian)
+    gradient = jacobian.T @ (weights * (a - goal))
+    mu = damping * float(np.trace(metric)) + 1e-12
+    return -np.linalg.solve(metric + mu * np.eye(2), gradient)
+
+
 class GradientController:
     """Follow the gradient of the slow-feature distance to the goal (Metka et al., IROS 2017;
     patent EP3367061), estimated online from the rover's own moves.
@@ -191,12 +273,8 @@ class GradientController:
     # -- episode --------------------------------------------------------------------------------
 
     def reset(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> None:
-        self._positions: list[NDArray] = []
-        self._features: list[NDArray] = []
-        self._odometer: list[float] = []  # distance travelled when each sample was taken
-        self._travelled = 0.0
-        self._last_position: NDArray | None = None
-        self._jacobian: NDArray | None = None
+        s = self.settings
+        self._local = LocalLinearFit(self.weights, s.memory, s.window, s.prior)
         self._costs: deque[float] = deque(maxlen=self.settings.stop_window)
         self._best = math.inf
         self._best_at = 0.0
@@ -205,82 +283,40 @@ class GradientController:
         self._phase = float(self.rng.uniform(0, math.tau))
         self.estimate: dict[str, float] = {}
 
-    def _remember(self, position: NDArray, features: NDArray) -> None:
-        if self._last_position is not None:
-            self._travelled += float(np.linalg.norm(position - self._last_position))
-        self._last_position = position
-        if self._positions and np.linalg.norm(position - self._positions[-1]) < 0.01:
-            # turning on the spot adds no information: keep only the latest features there
-            self._positions[-1], self._features[-1] = position, features
-            self._odometer[-1] = self._travelled
-        else:
-            self._positions.append(position)
-            self._features.append(features)
-            self._odometer.append(self._travelled)
-        while self._travelled - self._odometer[0] > self.settings.window:
-            del self._positions[0], self._features[0], self._odometer[0]
-
-    def _fit(self, position: NDArray) -> tuple[NDArray, NDArray, float] | None:
-        """``(a, J, noise floor of the cost)`` of the local linear model, or None while the first
-        moves do not span the plane."""
-        s = self.settings
-        if len(self._positions) < 4:
-            return None
-        p = np.array(self._positions) - position
-        f = np.array(self._features)
-        sw = np.exp(-(self._travelled - np.array(self._odometer)) / s.memory)
-        design = np.column_stack([np.ones(len(p)), p])
-        normal = design.T @ (sw[:, None] * design)
-        rhs = design.T @ (sw[:, None] * f)
-        if self._jacobian is None:
-            spread = np.linalg.eigvalsh(np.cov(p.T, aweights=sw))
-            if spread[0] < 0.02**2:  # the moves span less than a couple of cm across
-                return None
-        else:
-            strength = s.prior * sw.sum()
-            normal[1:, 1:] += strength * np.eye(2)
-            rhs[1:] += strength * self._jacobian.T
-        coef = np.linalg.solve(normal, rhs)
-        a, self._jacobian = coef[0], coef[1:].T
-        residual = f - design @ coef
-        noise = float(np.sum(sw[:, None] * self.weights * residual**2) / max(sw.sum() - 3, 1))
-        return a, self._jacobian, noise
-
     def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]:
         s = self.settings
         f = np.asarray(obs["features"], dtype=np.float64)
         g = np.asarray(obs["goal_features"], dtype=np.float64)
         x, y, yaw = (float(v) for v in info["odometry"])
         position = np.array([x, y])
-        self._remember(position, f)
+        self._local.remember(position, f)
+        travelled = self._local.travelled
 
         cost = float(np.sum(self.weights * (f - g) ** 2))
         self._costs.append(cost)
         if cost < self._best * (1 - s.progress):
-            self._best, self._best_at = cost, self._travelled
-        if self._travelled - self._best_at > s.give_up:
+            self._best, self._best_at = cost, travelled
+        if travelled - self._best_at > s.give_up:
             return self._stop()
 
         ranges = np.asarray(info.get("range", ()), dtype=np.float64)
-        if self._leave is None and s.leave > 0 and self._travelled < 1.0 and ranges.size:
+        if self._leave is None and s.leave > 0 and travelled < 1.0 and ranges.size:
             if ranges.min() < s.influence:
                 push = self._push(ranges, yaw)
-                self._leave = (math.atan2(push[1], push[0]), self._travelled)
-        if self._leave is not None and self._travelled - self._leave[1] < s.leave:
+                self._leave = (math.atan2(push[1], push[0]), travelled)
+        if self._leave is not None and travelled - self._leave[1] < s.leave:
             # a fixed direction, not the range readings of the moment: the sensor sees only
             # ahead, and turning away from a wall would look like having left it
             heading = self._unblocked(ranges, wrap_angle(self._leave[0] - yaw))
             return self._drive(s.speed * max(math.cos(heading), 0.0), s.turn_gain * heading)
 
-        fit = self._fit(position)
+        fit = self._local.fit()
         if fit is None:
             # not enough spread yet: drive a curve to get it
             return self._drive(s.min_speed * 1.5, self.w_max * 0.6)
         a, jac, noise = fit
         metric = jac.T @ (self.weights[:, None] * jac)  # (2, 2) J^T W J
-        gradient = jac.T @ (self.weights * (a - g))
-        damping = s.damping * float(np.trace(metric)) + 1e-12
-        step = -np.linalg.solve(metric + damping * np.eye(2), gradient)
+        step = gauss_newton_step(a, jac, g, self.weights, s.damping)
         curvature = float(np.trace(metric)) / 2  # cost per m^2 of distance, on average
         distance = math.sqrt(max(cost - noise, 0.0) / curvature) if curvature > 0 else math.inf
         if s.stop_curvature == "flattest":
@@ -295,7 +331,7 @@ class GradientController:
 
         direction = step / (np.linalg.norm(step) + 1e-12) + s.repel * self._push(ranges, yaw)
         weave = math.radians(s.weave_deg) * math.sin(
-            self._phase + math.tau * self._travelled / s.weave_wavelength
+            self._phase + math.tau * travelled / s.weave_wavelength
         )
         heading = wrap_angle(math.atan2(direction[1], direction[0]) + weave - yaw)
         heading = self._unblocked(ranges, heading)

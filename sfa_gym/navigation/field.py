@@ -60,7 +60,8 @@ with ``allow_pickle=False``, written atomically (:func:`sfa_gym._files.write_ato
 
   ``metadata`` is free-form for a field built by hand; :meth:`FeatureField.build` writes the
   keys above (``world_hash``: SHA-256 of the world spec as canonical JSON; ``model_info``:
-  whatever the caller passed to describe the model).
+  whatever the caller passed to describe the model; ``sfa-gym navigate`` writes ``method``,
+  ``cost_weights``, the gradient controller's feature weights, and ``weight_power``).
 - ``values``: ``(ny, nx, k)`` float64, the features at the nodes (non-free nodes filled).
 - ``free``: ``(ny, nx)`` bool, the nodes that were rendered.
 
