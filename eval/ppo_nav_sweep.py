@@ -2,7 +2,8 @@
 
 Runs ``baselines/agents/ppo_nav.py`` for each (method, seed), ``workers`` processes at a time
 (one torch thread each), on the feature fields that ``sfa-gym navigate`` wrote, and on rendered
-panoramas for ``pixels`` (CnnPolicy, with its own smaller budget), and ``oracle`` (the goal's
+panoramas for ``pixels`` (CnnPolicy, with its own smaller budget), ``<method>+estimate`` (the
+agent also sees the goal estimate of a local linear fit, ``--estimate``), and ``oracle`` (the goal's
 position relative to the rover from the ground truth: the upper bound, small budget). Each run
 keeps its learning curve and checkpoint in ``out/<method>-<seed>/`` and resumes there when
 started again; finished runs are skipped. Then it plots success and SPL against training steps
@@ -30,7 +31,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 AGENT = ROOT / "baselines" / "agents" / "ppo_nav.py"
-METHODS = ["sfa", "fft_magnitude", "band_means", "pca", "raw_pixels", "pixels", "oracle"]
+FEATURES = ["sfa", "fft_magnitude", "band_means", "pca", "raw_pixels"]
+# "<features>+estimate": the same memory plus the local linear fit's estimate of the goal
+METHODS = FEATURES + [f"{m}+estimate" for m in FEATURES] + ["pixels", "oracle"]
 
 
 def read_curve(run: Path) -> list[dict[str, float]]:
@@ -59,7 +62,9 @@ def run_one(args: argparse.Namespace, method: str, seed: int) -> Path:
     if method == "oracle":  # ground truth; SFA's field only spares the rendering
         command += ["--oracle", "--field", str(args.nav / "field_sfa.npz")]
     elif method != "pixels":
-        command += ["--field", str(args.nav / f"field_{method}.npz")]
+        features, _, estimate = method.partition("+")
+        command += ["--field", str(args.nav / f"field_{features}.npz")]
+        command += ["--estimate"] if estimate else []
     run.mkdir(parents=True, exist_ok=True)
     with open(run / "log.txt", "a") as log:
         done = subprocess.run(command, stdout=log, stderr=subprocess.STDOUT, check=False)
@@ -145,7 +150,8 @@ def main() -> None:
 
     jobs = [(m, s) for s in args.seeds for m in args.methods]
     if not args.plot_only:
-        for method in {m if m != "oracle" else "sfa" for m, _ in jobs} - {"pixels"}:
+        fields = {"sfa" if m == "oracle" else m.partition("+")[0] for m, _ in jobs}
+        for method in fields - {"pixels"}:
             if not (args.nav / f"field_{method}.npz").exists():
                 parser.error(f"no field for {method!r} in {args.nav}: run sfa-gym navigate first")
         with ThreadPoolExecutor(args.workers) as pool:

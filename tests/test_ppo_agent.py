@@ -151,3 +151,31 @@ def test_the_oracle_observes_the_goal_in_the_body_frame(agent, field_path, tmp_p
     env.close()
     with pytest.raises(ValueError, match="oracle needs a field"):
         agent.make_env(_small(agent, tmp_path, oracle=True))
+
+
+def test_the_goal_estimate_is_the_goals_displacement_where_features_are_linear(agent):
+    # features linear in position: the local fit is exact, and its Gauss-Newton step (damped
+    # by 10 % of the trace) points at the goal
+    mixing = np.array([[1.0, 0.2], [-0.3, 0.8], [0.5, 0.5]])
+    xs = ys = np.linspace(-3, 3, 7)
+    gx, gy = np.meshgrid(xs, ys)
+    values = np.stack([gx, gy], axis=-1) @ mixing.T
+    weights = [1.0, 2.0, 0.5]
+    field = FeatureField(values, (-3, 3, -3, 3), metadata={"model_info": {"cost_weights": weights}})
+    memory = agent.FeatureHistory(field, history=2, stride=1, estimate=True)
+    goal = mixing @ [1.0, 2.0]
+    out = None
+    for i, (x, y) in enumerate([(0, 0), (0.1, 0), (0.1, 0.1), (0.0, 0.15), (0.05, 0.05)]):
+        features = mixing @ [x, y]
+        out = memory({"features": features, "goal_features": goal},
+                     {"odometry": [x, y, math.pi / 2]}, i == 0)  # fmt: skip
+        if i < 2:  # two positions do not span the plane yet
+            np.testing.assert_array_equal(out[-3:], 0)
+    metric = mixing.T @ (np.array(weights)[:, None] * mixing)
+    step = np.linalg.solve(metric + 0.1 * np.trace(metric) * np.eye(2), metric @ [0.95, 1.95])
+    # facing north: east is to the right (-y in the body frame), north is ahead (+x)
+    np.testing.assert_allclose(out[-3:], [step[1], -step[0], 1.0], atol=1e-6)
+    assert out.shape == memory.space.shape
+
+    with pytest.raises(ValueError, match="cost_weights"):
+        agent.FeatureHistory(FeatureField(values, (-3, 3, -3, 3)), 2, 1, estimate=True)

@@ -54,9 +54,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from sfa_gym.navigation.controllers import GradientSettings, LocalLinearFit, gauss_newton_step
+
 CURVE = "learning_curve.csv"
 CHECKPOINT = "checkpoint.zip"
 FIELDS = ("steps", "success", "spl", "final_distance", "seconds")
+MAX_STEP = 3.0  # m: the longest goal estimate an agent sees (the arena is 6 m across)
 
 
 @dataclass(frozen=True)
@@ -105,6 +108,10 @@ class Args:
     change over each of those moves beside the move (odometry, body frame)"""
     history_stride: int = 2
     """steps between the remembered ones"""
+    estimate: bool = False
+    """feature agents also see where the local linear fit of their recent features against
+    odometry puts the goal (the gradient controller's Gauss-Newton step, body frame, m):
+    computed from the same senses, so still no ground truth"""
     progress: bool = True
     """show a progress bar"""
 
@@ -134,12 +141,13 @@ class FeatureHistory:
     ``2 k + (history - 1) (k + 2)``.
     """
 
-    def __init__(self, field: Any, history: int, stride: int) -> None:
+    def __init__(self, field: Any, history: int, stride: int, estimate: bool = False) -> None:
         values = np.asarray(field.values, dtype=np.float64).reshape(-1, field.n_features)
         self.mean = values.mean(axis=0)
         self.scale = np.maximum(values.std(axis=0), 1e-12)
         self.history, self.stride = history, stride
-        n = 2 * field.n_features + (history - 1) * (field.n_features + 2)
+        self.weights = cost_weights(field) if estimate else None
+        n = 2 * field.n_features + (history - 1) * (field.n_features + 2) + 3 * estimate
         self.space = gym.spaces.Box(-np.inf, np.inf, (n,), np.float32)
         self._past: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=(history - 1) * stride + 1)
 
@@ -158,7 +166,39 @@ class FeatureHistory:
         parts = [self.standardise(obs["goal_features"]) - now, now]
         for features, pose in list(self._past)[-1 - self.stride :: -self.stride]:
             parts += [now - features, turn @ ((x, y) - pose[:2])]
+        if self.weights is not None:
+            parts.append(self._goal_estimate(obs, (x, y), turn, new))
         return np.concatenate(parts).astype(np.float32)
+
+    def _goal_estimate(self, obs: dict[str, np.ndarray], xy: Any, turn: np.ndarray, new: bool):
+        """``(dx, dy, fitted)``: the Gauss-Newton step to the goal features in the body frame
+        (m, at most ``MAX_STEP``), and 1 once the recent moves span the plane (0 and a zero step
+        before)."""
+        s = GradientSettings()
+        if new:
+            self._local = LocalLinearFit(self.weights, s.memory, s.window, s.prior)
+        self._local.remember(np.array(xy, dtype=np.float64), obs["features"].astype(np.float64))
+        fit = self._local.fit()
+        if fit is None:
+            return np.zeros(3)
+        a, jacobian, _ = fit
+        step = turn @ gauss_newton_step(a, jacobian, obs["goal_features"], self.weights, s.damping)
+        length = float(np.linalg.norm(step))
+        if length > MAX_STEP:  # the fit extrapolates far from where it was made
+            step *= MAX_STEP / length
+        return np.array([step[0], step[1], 1.0])
+
+
+def cost_weights(field: Any) -> np.ndarray:
+    """The gradient controller's feature weights, stored with a field by ``sfa-gym navigate``."""
+    weights = field.metadata.get("model_info", {}).get("cost_weights")
+    if weights is None or len(weights) != field.n_features:
+        raise ValueError(
+            "estimate needs the cost weights that `sfa-gym navigate` stores with a field "
+            f"(metadata model_info.cost_weights, {field.n_features} numbers); this field has "
+            f"{weights!r}: build it again with `sfa-gym navigate`"
+        )
+    return np.asarray(weights, dtype=np.float64)
 
 
 class GoalVector(gym.Wrapper):
@@ -216,7 +256,8 @@ def make_env(args: Args):
     elif args.field is not None:
         field = FeatureField.load(args.field)
         env = gym.make(args.env_id, feature_field=field, reward=args.reward, **kwargs)
-        env = WithHistory(env, FeatureHistory(field, args.history, args.history_stride))
+        memory = FeatureHistory(field, args.history, args.history_stride, args.estimate)
+        env = WithHistory(env, memory)
     else:
         env = gym.make(args.env_id, reward=args.reward, **kwargs)
         transform = StackedPanoramas(env.observation_space)
