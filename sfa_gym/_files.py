@@ -21,7 +21,13 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = ["read_npy_header", "write_atomic", "write_json_atomic", "strict_json"]
+__all__ = [
+    "check_format_header",
+    "read_npy_header",
+    "strict_json",
+    "write_atomic",
+    "write_json_atomic",
+]
 
 
 def _fsync_dir(directory: Path) -> None:
@@ -111,3 +117,33 @@ def read_npy_header(stream: IO[bytes]) -> tuple[tuple[int, ...], bool, np.dtype[
         raise ValueError(f"unsupported .npy version {version}")
     shape, fortran, dtype = read(stream)
     return tuple(shape), bool(fortran), dtype
+
+
+def check_format_header(header: Any, expected: str, newest: int, what: str) -> int:
+    """The version of a file whose parsed JSON header names its ``format`` and ``version``.
+
+    Args:
+        header: the parsed header (anything: a damaged file can hold any JSON).
+        expected: the format name the header must give.
+        newest: the newest format version this library reads.
+        what: what the file is, for the message ("an sfa-gym model file").
+    Raises:
+        ValueError: another format, a version that is not a positive int, or a version newer
+            than ``newest`` (the message says to upgrade and which library wrote the file).
+    """
+    if not isinstance(header, dict) or header.get("format") != expected:
+        got = header.get("format") if isinstance(header, dict) else type(header).__name__
+        raise ValueError(f"format is {got!r}, expected {expected!r}: not {what}")
+    version = header.get("version")
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        raise ValueError(f"invalid format version {version!r}")
+    if version > newest:
+        from sfa_gym import __version__
+
+        writer = header.get("library_version")
+        by = f" (the file was written by sfa-gym {writer})" if writer else ""
+        raise ValueError(
+            f"format version {version} is newer than this sfa-gym ({__version__}) reads "
+            f"(up to {newest}); upgrade sfa-gym{by}"
+        )
+    return version

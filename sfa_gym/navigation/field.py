@@ -87,7 +87,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sfa_gym._files import read_npy_header, strict_json, write_atomic
+from sfa_gym._files import check_format_header, read_npy_header, strict_json, write_atomic
 from sfa_gym.features import rotation_averaged_features
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "INTERPOLATIONS", "FeatureField", "world_hash"]
@@ -675,19 +675,10 @@ def _parse_header(array: NDArray[Any]) -> dict[str, Any]:
         header = json.loads(str(array.reshape(())[()]))
     except json.JSONDecodeError as err:
         raise _BadField(f"the header is not valid JSON ({err})") from None
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        got = header.get("format") if isinstance(header, dict) else type(header).__name__
-        raise _BadField(f"format is {got!r}, expected {FORMAT!r}: not a feature field file")
-    version = header.get("version")
-    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
-        raise _BadField(f"invalid format version {version!r}")
-    if version > FORMAT_VERSION:
-        from sfa_gym import __version__
-
-        raise _BadField(
-            f"format version {version} is newer than this sfa-gym ({__version__}) reads (up to "
-            f"{FORMAT_VERSION}); upgrade sfa-gym"
-        )
+    try:
+        check_format_header(header, FORMAT, FORMAT_VERSION, "a feature field file")
+    except ValueError as err:
+        raise _BadField(str(err)) from None
     missing = [k for k in ("shape", "bounds", "interpolation", "metadata") if k not in header]
     if missing:
         raise _BadField(f"the header lacks {missing}")

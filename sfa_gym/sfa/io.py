@@ -51,7 +51,7 @@ from typing import IO, Any
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
-from sfa_gym._files import read_npy_header, strict_json, write_atomic
+from sfa_gym._files import check_format_header, read_npy_header, strict_json, write_atomic
 from sfa_gym.sfa._layers import Affine, LayerParams
 from sfa_gym.sfa._weights import affine_shapes, check_weight_sharing
 from sfa_gym.sfa.network import HierarchicalSFA
@@ -307,18 +307,10 @@ def _read_header(archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> Any:
 
 def _parse_header(header: Any) -> tuple[dict[str, Any], dict[str, tuple[int, ...]]]:
     """The model's arguments and the expected array shapes, from a parsed header."""
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        got = header.get("format") if isinstance(header, dict) else type(header).__name__
-        raise _BadModel(f"format is {got!r}, expected {FORMAT!r}: not an sfa-gym model file")
-    version = header.get("version")
-    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
-        raise _BadModel(f"invalid format version {version!r}")
-    if version > FORMAT_VERSION:
-        raise _BadModel(
-            f"format version {version} is newer than this sfa-gym {_library_version()} reads "
-            f"(up to {FORMAT_VERSION}); upgrade sfa-gym (the file was written by "
-            f"{header.get('library_version')!r})"
-        )
+    try:
+        version = check_format_header(header, FORMAT, FORMAT_VERSION, "an sfa-gym model file")
+    except ValueError as err:
+        raise _BadModel(str(err)) from None
     try:
         arch = header["architecture"]
         layers = [
