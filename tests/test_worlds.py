@@ -148,6 +148,26 @@ def test_paper_sim_worlds_are_generated_as_before(spec, seed):
     assert hashlib.sha256(mjcf.encode()).hexdigest() == PAPER_SIM_MJCF_SHA256[seed]
 
 
+# World seeds whose landmark sectors were too crowded to fill within the landmarks' depth band
+CROWDED_SEEDS = (11, 49, 84)
+
+
+@pytest.mark.parametrize("seed", CROWDED_SEEDS)
+def test_crowded_landmark_sectors_move_back_and_keep_their_gap(spec, seed):
+    layout = build_world(spec, seed).layout
+    kinds = {k.kind: k for k in spec.landmarks.kinds}
+    assert len(layout.landmarks) == sum(k.count for k in kinds.values())
+    # every landmark still stands outside the walls and clears its neighbours' centres by at
+    # least min_gap plus the narrowest widths (their radii are at least half of those)
+    points = np.array([(x, y) for _, x, y, _ in layout.landmarks])
+    half = spec.arena.size[0] / 2 + spec.arena.wall_thickness
+    assert (np.abs(points).max(axis=1) > half + spec.landmarks.clearance).all()
+    narrowest = min(k.width[0] for k in kinds.values())
+    distances = np.hypot(*(points[:, None] - points[None]).transpose(2, 0, 1))
+    np.fill_diagonal(distances, np.inf)
+    assert distances.min() >= spec.landmarks.min_gap + narrowest
+
+
 def _write(tmp_path, text: str):
     path = tmp_path / "broken.json"
     path.write_text(text)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -236,13 +237,21 @@ def _landmarks(b: _Builder) -> list[tuple[str, float, float, float]]:
 
         # One landmark per azimuth sector so that every viewing direction sees some; within
         # its sector the landmark moves until it clears the others.
-        def in_sector(slot: int = slot, radius: float = radius) -> tuple[float, float]:
+        def in_sector(
+            slot: int = slot, radius: float = radius, depth: float = spec.depth
+        ) -> tuple[float, float]:
             az = offset + (slot + rng.uniform(0.1, 0.9)) * 2 * math.pi / n
             r = _square_distance(az, hx, hy) + spec.clearance + radius
-            r += rng.uniform(0, spec.depth)
+            r += rng.uniform(0, depth)
             return r * math.cos(az), r * math.sin(az)
 
         point = _place(in_sector, radius, placed, spec.min_gap, attempts=100)
+        # A crowded sector (wide neighbours drawn close) gets a deeper band to move back into;
+        # worlds whose landmarks fit the first time are not changed by it.
+        for widen in (2.0, 4.0):
+            if point is None:
+                deeper = functools.partial(in_sector, depth=spec.depth * widen)
+                point = _place(deeper, radius, placed, spec.min_gap, attempts=100)
         if point is None:
             raise ValueError(
                 f"cannot place {n} landmarks apart by min_gap {spec.min_gap}: "
