@@ -316,3 +316,21 @@ def test_forking_after_rendering_fails_clearly_instead_of_hanging(env):
     with pytest.raises(RuntimeError, match="spawn"):
         venv.reset(seed=0)
     venv.close()
+
+
+def test_a_pose_inside_an_obstacle_is_refused():
+    e = OmniRoverEnv(world="paper_sim_obstacles", panorama=SMALL)
+    try:
+        x, y, radius = e.layout.obstacles[0]
+        with pytest.raises(ValueError, match=r"from an obstacle or interior wall"):
+            e.reset(options={"pose": (x, y, 0.0)})
+        # just outside the obstacle's circle is still too close for the rover's footprint
+        edge = (x + radius + 0.5 * e.rover.footprint_radius, y, 0.0)
+        if e.layout.bounds[0] <= edge[0] <= e.layout.bounds[1]:
+            with pytest.raises(ValueError, match="footprint radius"):
+                e.reset(options={"pose": edge})
+        free = e.grid_positions(9)[e.layout.clearance(e.grid_positions(9)) > 1.0][0]
+        _, info = e.reset(options={"pose": (*free, 0.0)})
+        assert (info["x"], info["y"]) == pytest.approx(tuple(free), abs=0.01)
+    finally:
+        e.close()

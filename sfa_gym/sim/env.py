@@ -312,6 +312,13 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
                 f'options["pose"] position ({x}, {y}) lies outside the drivable area '
                 f"x in [{xmin}, {xmax}], y in [{ymin}, {ymax}]"
             )
+        clearance = float(self.layout.clearance([(x, y)])[0])
+        if clearance <= self.rover.footprint_radius:
+            raise ValueError(
+                f'options["pose"] position ({x}, {y}) is {clearance:.3f} m from an obstacle or '
+                f"interior wall; the rover needs more than its footprint radius "
+                f"{self.rover.footprint_radius:.3f} m"
+            )
         return x, y, yaw
 
     # -- gymnasium API ------------------------------------------------------------------------
