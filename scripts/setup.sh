@@ -4,7 +4,7 @@
 #
 #   bash scripts/setup.sh          the library and its command line (sfa-gym)
 #   bash scripts/setup.sh test     also the test dependencies (pytest, hypothesis,
-#                                  stable-baselines3, MDP)
+#                                  stable-baselines3, MDP, Ray)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

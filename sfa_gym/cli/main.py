@@ -8,6 +8,8 @@
   (:class:`~sfa_gym.cli.localize.LocalizeRun`).
 - ``sfa-gym navigate``: image-goal navigation with the slow-feature-gradient controller
   (:class:`~sfa_gym.cli.navigate.Navigate`).
+- ``sfa-gym leaderboard run|table``: score methods on the versioned tracks, build the table
+  (:class:`~sfa_gym.cli.leaderboard.Leaderboard`).
 
 Each option is a field of a settings dataclass and its help text is the field's docstring;
 values are checked by the dataclass's ``validate()``, before anything is written. A bad value
@@ -22,6 +24,7 @@ from typing import Annotated
 
 import tyro
 
+from sfa_gym.cli.leaderboard import Leaderboard
 from sfa_gym.cli.localize import Localize, LocalizeRun
 from sfa_gym.cli.navigate import Navigate
 from sfa_gym.cli.record import Record
@@ -34,6 +37,7 @@ Command = (
     | Annotated[Localize, tyro.conf.subcommand("localize")]
     | Annotated[LocalizeRun, tyro.conf.subcommand("localize-run")]
     | Annotated[Navigate, tyro.conf.subcommand("navigate")]
+    | Annotated[Leaderboard, tyro.conf.subcommand("leaderboard")]
 )
 """The subcommands, one settings dataclass each."""
 
@@ -43,7 +47,9 @@ DESCRIPTION = (
 )
 
 
-def parse(argv: Sequence[str] | None = None) -> Record | Localize | LocalizeRun | Navigate:
+def parse(
+    argv: Sequence[str] | None = None,
+) -> Record | Localize | LocalizeRun | Navigate | Leaderboard:
     """The command and its settings from ``argv`` (default: ``sys.argv[1:]``); ``--help`` and
     unparsable options exit as argparse does."""
     return tyro.cli(
@@ -60,7 +66,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = parse(argv)
     try:
         return command.run()
-    except (ValueError, OSError, PluginError) as error:
+    except (ValueError, OSError, PluginError, ImportError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
 

@@ -1,0 +1,118 @@
+"""``sfa-gym leaderboard run`` and ``sfa-gym leaderboard table``: score methods on the versioned
+tracks of ``eval/tracks/`` and build the table (:mod:`sfa_gym.leaderboard`)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import tyro
+
+__all__ = ["Leaderboard", "LeaderboardRun", "LeaderboardTable"]
+
+
+def _parse_args(items: tuple[str, ...]) -> dict[str, Any]:
+    """``("n_bands=4", "regressor=map")`` -> ``{"n_bands": 4, "regressor": "map"}`` (values
+    read as JSON where they parse, else kept as text)."""
+    out: dict[str, Any] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            raise ValueError(f"--method-args takes NAME=VALUE items, got {item!r}")
+        try:
+            out[name] = json.loads(value)
+        except json.JSONDecodeError:
+            out[name] = value
+    return out
+
+
+@dataclass(frozen=True)
+class LeaderboardRun:
+    """Score methods on tracks; one result file per (track, method) with a 95 % interval
+    across the track's world seeds."""
+
+    method: tuple[Path, ...]
+    """feature-method plug-in files (e.g. baselines/fft_magnitude.py); several: a sweep"""
+    track: tuple[str, ...] = ("all",)
+    """track names (files of --tracks) or "all" """
+    quick: bool = False
+    """the tracks' reduced size (fewer world seeds, smaller grids)"""
+    backend: Literal["local", "ray"] = "local"
+    """local: in this process, no Ray; ray: one Ray task per (track, method, world seed)"""
+    address: str | None = None
+    """ray: the cluster to join ("auto", "ray://head:10001"); default: start a local Ray"""
+    num_cpus: int | None = None
+    """ray, local Ray only: CPUs it may use (default: all)"""
+    method_args: tuple[str, ...] = ()
+    """arguments of the methods' Args, NAME=VALUE (e.g. n_bands=4), applied to every method"""
+    results: Path = Path("results/leaderboard")
+    """results folder"""
+    tracks: Path | None = None
+    """folder of track files (default: eval/tracks of the checkout)"""
+    cache: Path | None = None
+    """render cache folder (default: $SFA_GYM_CACHE or ~/.cache/sfa-gym/runs); on a cluster,
+    a folder every node sees"""
+
+    def run(self) -> int:
+        from sfa_gym.leaderboard.sweep import run_sweep
+        from sfa_gym.leaderboard.tracks import list_tracks
+
+        available = {t.name: t for t in list_tracks(self.tracks)}
+        if "all" in self.track:
+            chosen = list(available.values())
+        else:
+            unknown = [name for name in self.track if name not in available]
+            if unknown:
+                raise ValueError(
+                    f"--track {unknown[0]!r} is not a track; the tracks are "
+                    f"{sorted(available)} (or all)"
+                )
+            chosen = [available[name] for name in self.track]
+        args = _parse_args(self.method_args)
+        written = run_sweep(
+            chosen,
+            [(path, args) for path in self.method],
+            self.results,
+            quick=self.quick,
+            backend=self.backend,
+            address=self.address,
+            num_cpus=self.num_cpus,
+            cache_dir=self.cache,
+        )
+        for path in written:
+            score = json.loads(path.read_text())["score"]
+            ci = score["ci95"]
+            interval = f" (95 % t-interval {ci[0]:.3f} .. {ci[1]:.3f})" if ci else ""
+            print(f"{path}: {score['mean']:.3f}{interval}")
+        return 0
+
+
+@dataclass(frozen=True)
+class LeaderboardTable:
+    """Write LEADERBOARD.md and leaderboard.png from the result files of a folder."""
+
+    results: Path = Path("results/leaderboard")
+    """results folder (searched recursively)"""
+    out: Path | None = None
+    """where to write the table and the chart (default: the results folder)"""
+
+    def run(self) -> int:
+        from sfa_gym.leaderboard.results import write_table
+
+        print(write_table(self.results, self.out), end="")
+        return 0
+
+
+@dataclass(frozen=True)
+class Leaderboard:
+    """The leaderboard: score methods on versioned tracks (run), build the table (table)."""
+
+    command: (
+        Annotated[LeaderboardRun, tyro.conf.subcommand("run")]
+        | Annotated[LeaderboardTable, tyro.conf.subcommand("table")]
+    )
+
+    def run(self) -> int:
+        return self.command.run()

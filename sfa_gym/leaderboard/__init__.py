@@ -1,0 +1,24 @@
+"""The leaderboard: versioned tracks, one command to score a method on them, citable results.
+
+- :mod:`~sfa_gym.leaderboard.tracks`: track files (``eval/tracks/*.json``), loaded and checked.
+- :mod:`~sfa_gym.leaderboard.plugins`: methods loaded by path (the plug-in protocol).
+- :mod:`~sfa_gym.leaderboard.cache`: the shared render cache.
+- :mod:`~sfa_gym.leaderboard.evaluate`: one (track, method, world seed) task.
+- :mod:`~sfa_gym.leaderboard.backends`: running the tasks locally or on Ray.
+- :mod:`~sfa_gym.leaderboard.results`: result files with provenance and intervals; the table.
+"""
+
+from __future__ import annotations
+
+from sfa_gym.leaderboard.cache import RunCache, RunRequest
+from sfa_gym.leaderboard.tracks import DEVELOPMENT_SEEDS, Track, TrackError, list_tracks, load_track
+
+__all__ = [
+    "DEVELOPMENT_SEEDS",
+    "RunCache",
+    "RunRequest",
+    "Track",
+    "TrackError",
+    "list_tracks",
+    "load_track",
+]

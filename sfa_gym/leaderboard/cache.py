@@ -1,0 +1,192 @@
+"""The shared render cache: a rendered run is keyed by what determines its pixels, rendered once
+and reused by every method, every track and every process.
+
+The key of a :class:`RunRequest` is the SHA-256 of a JSON object holding the content of the
+world spec (not only its name: an edited spec is another world), the world seed, the panorama
+spec, the env id, the driver with its arguments, the number of frames, the reset seed and
+:data:`RENDERING_VERSION`. The run lives in ``<cache>/<key>.run`` (the run file format of
+:mod:`sfa_gym.recording.runfile`) beside ``<key>.json``, the key's readable content.
+
+Concurrency: a process that finds no valid entry takes an exclusive ``fcntl.flock`` on
+``<key>.lock``, looks again (another process may have rendered it meanwhile), renders into a
+temporary directory and renames it to ``<key>.run`` (``os.replace``, atomic), so a reader sees
+a whole run or none. An entry that fails the run format's checks (a missing or truncated chunk,
+a SHA-256 mismatch) is deleted and rendered again. Each render appends one line to
+``<cache>/renders.log`` (key, pid, seconds).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import fcntl
+import hashlib
+import json
+import os
+import shutil
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["RENDERING_VERSION", "RunCache", "RunRequest", "default_cache_dir"]
+
+RENDERING_VERSION = 1
+"""Bumped when the renderer, the camera or the recorder changes pixels for the same request
+(the package version is not part of the key: most releases do not change a pixel)."""
+
+ENV_VARIABLE = "SFA_GYM_CACHE"
+
+
+def default_cache_dir() -> Path:
+    """``$SFA_GYM_CACHE`` if set, else ``~/.cache/sfa-gym/runs``."""
+    override = os.environ.get(ENV_VARIABLE)
+    if override:
+        return Path(override)
+    return Path.home() / ".cache" / "sfa-gym" / "runs"
+
+
+@dataclass(frozen=True)
+class RunRequest:
+    """A run to render: ``record(env_id, driver, n_steps=n_steps, seed=seed)`` in ``world``
+    with ``world_seed`` and panoramas ``panorama = (height, width)`` pixels.
+
+    Attributes:
+        driver: a :class:`~sfa_gym.recording.drivers.GridPositions` or a driver instance; its
+            ``describe()`` enters the key.
+    """
+
+    world: str
+    world_seed: int
+    panorama: tuple[int, int]
+    driver: Any
+    n_steps: int | None = None
+    seed: int = 0
+    env_id: str = "sfa_gym/OmniRover-v0"
+
+    def panorama_spec(self) -> Any:
+        """The env's :class:`~sfa_gym.sim.camera.PanoramaSpec` (other fields at defaults)."""
+        from sfa_gym.sim.camera import PanoramaSpec
+
+        height, width = self.panorama
+        return PanoramaSpec(width=int(width), height=int(height))
+
+    def key_content(self) -> dict[str, Any]:
+        """Everything that determines the pixels, as JSON types."""
+        from sfa_gym.sim.worlds.spec import load_world_spec
+
+        spec = dataclasses.asdict(load_world_spec(self.world))
+        spec_text = json.dumps(spec, sort_keys=True, default=list)
+        return {
+            "rendering_version": RENDERING_VERSION,
+            "env_id": self.env_id,
+            "world": self.world,
+            "world_spec_sha256": hashlib.sha256(spec_text.encode()).hexdigest(),
+            "world_seed": int(self.world_seed),
+            "panorama": dataclasses.asdict(self.panorama_spec()),
+            "driver": json.loads(json.dumps(self.driver.describe(), default=list)),
+            "n_steps": self.n_steps,
+            "seed": int(self.seed),
+        }
+
+    def key(self) -> str:
+        """The cache key: SHA-256 (hex) of :meth:`key_content` as canonical JSON."""
+        text = json.dumps(self.key_content(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
+
+
+@contextlib.contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    with open(path, "a+b") as file:
+        fcntl.flock(file.fileno(), fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(file.fileno(), fcntl.LOCK_UN)
+
+
+class RunCache:
+    """Rendered runs on disk, keyed by :meth:`RunRequest.key` (see the module docstring).
+
+    Args:
+        root: the cache folder (created on first use); default :func:`default_cache_dir`.
+        progress: progress bars while rendering.
+    """
+
+    def __init__(self, root: str | os.PathLike[str] | None = None, progress: bool = False):
+        self.root = default_cache_dir() if root is None else Path(root)
+        self.progress = progress
+
+    def path(self, request: RunRequest) -> Path:
+        """Where the run of ``request`` is (or will be) stored."""
+        return self.root / f"{request.key()}.run"
+
+    def _valid(self, path: Path) -> Any | None:
+        """The run at ``path`` if it is complete and every chunk matches its checksum."""
+        from sfa_gym.recording.runfile import RunFormatError, load_run
+
+        if not path.is_dir():
+            return None
+        try:
+            run = load_run(path)
+            run.verify()
+        except (RunFormatError, OSError):
+            return None
+        return run if run.complete else None
+
+    def get(self, request: RunRequest) -> Any:
+        """The :class:`~sfa_gym.recording.runfile.Run` of ``request``, rendered if no valid
+        entry exists (once, whichever number of processes ask at the same time)."""
+        path = self.path(request)
+        run = self._valid(path)
+        if run is not None:
+            return run
+        self.root.mkdir(parents=True, exist_ok=True)
+        with _locked(path.with_suffix(".lock")):
+            run = self._valid(path)
+            if run is not None:
+                return run
+            return self._render(request, path)
+
+    def _render(self, request: RunRequest, path: Path) -> Any:
+        from sfa_gym._files import write_json_atomic
+        from sfa_gym.recording.recorder import record
+        from sfa_gym.recording.runfile import load_run
+
+        if path.exists():
+            # damaged or incomplete: nothing in it is trusted
+            shutil.rmtree(path)
+        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.run")
+        if tmp.exists():
+            shutil.rmtree(tmp)
+        started = time.perf_counter()
+        record(
+            request.env_id,
+            request.driver,
+            tmp,
+            n_steps=request.n_steps,
+            seed=request.seed,
+            env_kwargs={
+                "world": request.world,
+                "world_seed": request.world_seed,
+                "panorama": request.panorama_spec(),
+            },
+            progress=self.progress,
+        )
+        os.replace(tmp, path)
+        seconds = time.perf_counter() - started
+        write_json_atomic(path.with_suffix(".json"), request.key_content())
+        line = f"{path.stem} pid={os.getpid()} seconds={seconds:.2f}\n"
+        # one write of a short line with O_APPEND: lines of concurrent processes do not mix
+        fd = os.open(self.root / "renders.log", os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+        try:
+            os.write(fd, line.encode())
+        finally:
+            os.close(fd)
+        return load_run(path)
+
+    def renders(self) -> list[str]:
+        """The lines of ``renders.log``: one per render since the cache was created."""
+        log = self.root / "renders.log"
+        return log.read_text().splitlines() if log.is_file() else []

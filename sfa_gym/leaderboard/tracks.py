@@ -1,0 +1,346 @@
+"""Leaderboard tracks: versioned JSON files that fix what a method is scored on.
+
+A track file (``eval/tracks/<name>.json``) is a JSON object::
+
+    {"schema_version": 1,
+     "name": "train_test",            # equals the file's stem
+     "track_version": 1,              # bumped whenever a change would change scores
+     "kind": "localization" | "navigation",
+     "evaluation": "paper_splits" | "train_test" | "few_labels" | "unvisited_region"
+                   | "unseen_worlds" | "navigation",
+     "description": "...",
+     "world": "paper_sim",            # a world spec name in envs/
+     "world_seeds": [100, 101, ...],  # scoring worlds; one task each; the interval is across them
+     "seed": 7001,                    # headings, train/test selection, splits, episodes
+     "params": {...},                 # the evaluation's sizes (see REQUIRED_PARAMS)
+     "quick": {"world_seeds": 2, "params": {...}}}  # the reduced size: the first n world
+                                                    # seeds and parameter overrides
+
+``unseen_worlds`` adds ``"fit_world_seeds"`` (one per scoring world: the world the method is
+fitted on); ``navigation`` adds ``params.episode_seed`` (episodes ``episode_seed + i``).
+
+Every seed of a track must stay clear of :data:`DEVELOPMENT_SEEDS`, the seeds the tests, the
+examples and the README use: a method tuned on those would otherwise be scored on what it was
+tuned on. :func:`load_track` refuses a file with an unknown schema version, a missing or
+unknown field, or a colliding seed, with a :class:`TrackError` (a ValueError) naming the file,
+the field and the value.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+__all__ = [
+    "DEVELOPMENT_SEEDS",
+    "EVALUATIONS",
+    "SCHEMA_VERSION",
+    "Track",
+    "TrackError",
+    "default_track_folder",
+    "list_tracks",
+    "load_track",
+    "track_from_dict",
+]
+
+SCHEMA_VERSION = 1
+"""The track file schema this sfa_gym reads."""
+
+DEVELOPMENT_SEEDS: Mapping[str, frozenset[int]] = {
+    # world seeds of tests, examples and README figures
+    "world": frozenset(range(10)),
+    # position/heading seeds (tests, `sfa-gym localize` default 0), navigation episode seeds of
+    # the README (1000-1099, 2000-2099) and the PPO evaluation episodes (10000-10049)
+    "episode": frozenset(range(10))
+    | frozenset(range(1000, 1100))
+    | frozenset(range(2000, 2100))
+    | frozenset(range(10000, 10050)),
+}
+"""Seeds in development use, which no track may score on (the one place they are listed)."""
+
+Kind = Literal["localization", "navigation"]
+Evaluation = Literal[
+    "paper_splits", "train_test", "few_labels", "unvisited_region", "unseen_worlds", "navigation"
+]
+
+_GRID = ("panorama", "grid", "n_train", "n_test", "order", "step")
+REQUIRED_PARAMS: Mapping[str, tuple[str, ...]] = {
+    "paper_splits": (*_GRID, "n_splits"),
+    "train_test": _GRID,
+    "few_labels": (*_GRID, "labels"),
+    "unseen_worlds": _GRID,
+    "unvisited_region": (
+        "panorama",
+        "spacing",
+        "margin",
+        "exclude",
+        "test_insets",
+        "frame_every",
+        "test_every",
+        "step",
+        "eval_rotations",
+        "train_steps",
+        "test_steps",
+    ),
+    "navigation": (
+        "env_id",
+        "panorama",
+        "train_grid",
+        "field_spacing",
+        "episodes",
+        "episode_seed",
+        "weight_power",
+    ),
+}
+"""The ``params`` each evaluation needs (and accepts: others are refused as typos)."""
+
+EVALUATIONS: Mapping[str, str] = {
+    "paper_splits": "localization",
+    "train_test": "localization",
+    "few_labels": "localization",
+    "unvisited_region": "localization",
+    "unseen_worlds": "localization",
+    "navigation": "navigation",
+}
+"""Each evaluation and the kind of track it belongs to."""
+
+_FIELDS = (
+    "schema_version",
+    "name",
+    "track_version",
+    "kind",
+    "evaluation",
+    "description",
+    "world",
+    "world_seeds",
+    "seed",
+    "params",
+    "quick",
+)
+
+
+class TrackError(ValueError):
+    """A track file that this sfa_gym cannot score on; the message names the file and field."""
+
+
+@dataclass(frozen=True)
+class Track:
+    """One loaded track (see the module docstring for the fields).
+
+    Attributes:
+        path: the file it was read from (None when built from a dict).
+        fit_world_seeds: ``unseen_worlds`` only: the world the method is fitted on, per scoring
+            world; empty otherwise.
+    """
+
+    name: str
+    track_version: int
+    kind: Kind
+    evaluation: Evaluation
+    description: str
+    world: str
+    world_seeds: tuple[int, ...]
+    seed: int
+    params: Mapping[str, Any]
+    quick: Mapping[str, Any]
+    fit_world_seeds: tuple[int, ...] = ()
+    path: Path | None = None
+
+    def sized(self, quick: bool) -> tuple[tuple[int, ...], dict[str, Any]]:
+        """The scoring world seeds and the parameters at full size or at the ``quick`` size."""
+        if not quick:
+            return self.world_seeds, dict(self.params)
+        n = self.quick["world_seeds"]
+        return self.world_seeds[:n], {**self.params, **self.quick.get("params", {})}
+
+    def fit_world_seed(self, world_seed: int) -> int:
+        """The world the method is fitted on when scored on ``world_seed`` (itself, except on
+        ``unseen_worlds``)."""
+        if not self.fit_world_seeds:
+            return world_seed
+        return self.fit_world_seeds[self.world_seeds.index(world_seed)]
+
+    def describe(self) -> dict[str, Any]:
+        """The track as its file holds it (JSON types), for results' provenance."""
+        out = {k: v for k, v in dataclasses.asdict(self).items() if k != "path"}
+        out["world_seeds"] = list(self.world_seeds)
+        out["fit_world_seeds"] = list(self.fit_world_seeds)
+        return out
+
+
+def _int(where: str, name: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TrackError(f"{where}: {name} must be an int, got {value!r}")
+    return value
+
+
+def _seeds(where: str, name: str, value: Any) -> tuple[int, ...]:
+    if not isinstance(value, list) or not value:
+        raise TrackError(f"{where}: {name} must be a non-empty list of ints, got {value!r}")
+    seeds = tuple(_int(where, f"{name}[{i}]", s) for i, s in enumerate(value))
+    if len(set(seeds)) != len(seeds):
+        raise TrackError(f"{where}: {name} {list(seeds)} repeats a seed")
+    return seeds
+
+
+def _check_clear(where: str, name: str, seeds: tuple[int, ...], pool: str) -> None:
+    clash = sorted(set(seeds) & DEVELOPMENT_SEEDS[pool])
+    if clash:
+        raise TrackError(
+            f"{where}: {name} {clash[0]} is a development seed (tests, examples and the README "
+            f"use {pool} seeds {_ranges(DEVELOPMENT_SEEDS[pool])}); scoring seeds must be "
+            "disjoint from them"
+        )
+
+
+def _ranges(seeds: frozenset[int]) -> str:
+    out, ordered = [], sorted(seeds)
+    start = prev = ordered[0]
+    for s in [*ordered[1:], None]:
+        if s is not None and s == prev + 1:
+            prev = s
+            continue
+        out.append(f"{start}-{prev}" if prev != start else f"{start}")
+        if s is not None:
+            start = prev = s
+    return ", ".join(out)
+
+
+def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -> Track:
+    """Check a parsed track file and build its :class:`Track`.
+
+    Raises:
+        TrackError: an unknown schema version, a missing or unknown field, a wrong type, or a
+            seed among :data:`DEVELOPMENT_SEEDS`; the message names ``where`` and the field.
+    """
+    if not isinstance(data, dict):
+        raise TrackError(f"{where}: a track file holds a JSON object, got {type(data).__name__}")
+    version = data.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise TrackError(
+            f"{where}: unknown schema_version {version!r}; this sfa_gym reads track files of "
+            f"schema version {SCHEMA_VERSION}"
+        )
+    evaluation = data.get("evaluation")
+    optional = ("fit_world_seeds",) if evaluation == "unseen_worlds" else ()
+    for name in _FIELDS + optional:
+        if name not in data:
+            raise TrackError(f"{where}: missing field {name!r}")
+    unknown = sorted(set(data) - set(_FIELDS) - set(optional))
+    if unknown:
+        raise TrackError(f"{where}: unknown field {unknown[0]!r}; the fields are {list(_FIELDS)}")
+    if evaluation not in EVALUATIONS:
+        raise TrackError(f"{where}: evaluation {evaluation!r} is not one of {sorted(EVALUATIONS)}")
+    if data["kind"] != EVALUATIONS[evaluation]:
+        raise TrackError(
+            f"{where}: kind {data['kind']!r} does not match evaluation {evaluation!r} "
+            f"(a {EVALUATIONS[evaluation]} evaluation)"
+        )
+    for name in ("name", "world", "description"):
+        if not isinstance(data[name], str) or (name != "description" and not data[name]):
+            raise TrackError(f"{where}: {name} must be a non-empty string, got {data[name]!r}")
+    if path is not None and data["name"] != path.stem:
+        raise TrackError(f"{where}: name {data['name']!r} differs from the file name {path.stem!r}")
+    track_version = _int(where, "track_version", data["track_version"])
+    if track_version < 1:
+        raise TrackError(f"{where}: track_version must be >= 1, got {track_version}")
+    world_seeds = _seeds(where, "world_seeds", data["world_seeds"])
+    _check_clear(where, "world_seeds", world_seeds, "world")
+    seed = _int(where, "seed", data["seed"])
+    _check_clear(where, "seed", (seed,), "episode")
+    fit_world_seeds: tuple[int, ...] = ()
+    if optional:
+        fit_world_seeds = _seeds(where, "fit_world_seeds", data["fit_world_seeds"])
+        _check_clear(where, "fit_world_seeds", fit_world_seeds, "world")
+        if len(fit_world_seeds) != len(world_seeds) or set(fit_world_seeds) & set(world_seeds):
+            raise TrackError(
+                f"{where}: fit_world_seeds {list(fit_world_seeds)} must pair one world each "
+                f"with world_seeds {list(world_seeds)}, none of them scored on"
+            )
+    params = data["params"]
+    if not isinstance(params, dict):
+        raise TrackError(f"{where}: params must be an object, got {params!r}")
+    required = REQUIRED_PARAMS[evaluation]
+    for name in required:
+        if name not in params:
+            raise TrackError(f"{where}: missing field 'params.{name}' (needed by {evaluation})")
+    extra = sorted(set(params) - set(required))
+    if extra:
+        raise TrackError(f"{where}: unknown field 'params.{extra[0]}' for {evaluation}")
+    if "episode_seed" in params:
+        first = _int(where, "params.episode_seed", params["episode_seed"])
+        episodes = _int(where, "params.episodes", params["episodes"])
+        _check_clear(where, "params.episode_seed", tuple(range(first, first + episodes)), "episode")
+    quick = data["quick"]
+    if not isinstance(quick, dict) or "world_seeds" not in quick:
+        raise TrackError(f"{where}: missing field 'quick.world_seeds'")
+    n_quick = _int(where, "quick.world_seeds", quick["world_seeds"])
+    if not 1 <= n_quick <= len(world_seeds):
+        raise TrackError(
+            f"{where}: quick.world_seeds must be in [1, {len(world_seeds)}], got {n_quick}"
+        )
+    overrides = quick.get("params", {})
+    if not isinstance(overrides, dict) or set(overrides) - set(required):
+        bad = sorted(set(overrides) - set(required)) if isinstance(overrides, dict) else overrides
+        raise TrackError(f"{where}: quick.params overrides unknown params {bad!r}")
+    return Track(
+        name=data["name"],
+        track_version=track_version,
+        kind=data["kind"],
+        evaluation=evaluation,
+        description=data["description"],
+        world=data["world"],
+        world_seeds=world_seeds,
+        seed=seed,
+        params=params,
+        quick=quick,
+        fit_world_seeds=fit_world_seeds,
+        path=path,
+    )
+
+
+def load_track(path: str | os.PathLike[str]) -> Track:
+    """Read and check one track file (see :func:`track_from_dict`).
+
+    Raises:
+        FileNotFoundError: no such file.
+        TrackError: not valid JSON, or not a valid track.
+    """
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as error:
+        raise TrackError(f"{path} is not valid JSON: {error}") from None
+    return track_from_dict(data, str(path), path)
+
+
+def default_track_folder() -> Path:
+    """``eval/tracks`` of the checkout this sfa_gym runs from, else the copy in the wheel.
+
+    Raises:
+        FileNotFoundError: neither exists (name a folder of track files instead).
+    """
+    import sfa_gym
+
+    package = Path(sfa_gym.__file__).resolve().parent
+    # in a checkout the package's parent holds eval/; a wheel carries the files inside
+    for folder in (package.parent / "eval" / "tracks", package / "tracks_data"):
+        if folder.is_dir():
+            return folder
+    raise FileNotFoundError(
+        "no track files: neither eval/tracks of a checkout nor the wheel's copy; name a "
+        "folder of track files with --tracks"
+    )
+
+
+def list_tracks(folder: str | os.PathLike[str] | None = None) -> list[Track]:
+    """Every track file of ``folder`` (default: :func:`default_track_folder`), sorted by name."""
+    folder = default_track_folder() if folder is None else Path(folder)
+    if not folder.is_dir():
+        raise FileNotFoundError(f"no track folder {folder}")
+    return [load_track(p) for p in sorted(folder.glob("*.json"))]

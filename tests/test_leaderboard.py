@@ -1,0 +1,262 @@
+"""The leaderboard: track files refused with clear errors, plug-ins loaded by path alone, the
+shared render cache (one render for concurrent workers, damaged entries re-rendered), the same
+scores from the local and the Ray backend, and the command line end to end."""
+
+from __future__ import annotations
+
+import copy
+import json
+import multiprocessing
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sfa_gym.leaderboard.cache import RunCache, RunRequest
+from sfa_gym.leaderboard.plugins import PluginError, load_method
+from sfa_gym.leaderboard.tracks import TrackError, list_tracks, load_track, track_from_dict
+from sfa_gym.recording.drivers import GridPositions
+
+ROOT = Path(__file__).resolve().parents[1]
+BAND_MEANS = ROOT / "baselines" / "band_means.py"
+
+# a track small enough for tests: 6 x 6 grid, 10 x 40 panoramas
+TINY = {
+    "schema_version": 1,
+    "name": "tiny",
+    "track_version": 1,
+    "kind": "localization",
+    "evaluation": "train_test",
+    "description": "test track",
+    "world": "paper_sim",
+    "world_seeds": [100, 101],
+    "seed": 7001,
+    "params": {
+        "panorama": [10, 40],
+        "grid": 6,
+        "n_train": 20,
+        "n_test": 12,
+        "order": "hilbert",
+        "step": 5,
+    },
+    "quick": {"world_seeds": 1},
+}
+
+
+def _write_track(folder: Path, data: dict) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{data['name']}.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+# ----------------------------------------------------------------------------- tracks
+
+
+def test_shipped_tracks_load_and_stay_clear_of_development_seeds():
+    tracks = {t.name: t for t in list_tracks(ROOT / "eval" / "tracks")}
+    assert {"paper_sim_parity", "train_test", "few_labels", "unvisited_region"} <= set(tracks)
+    assert {"unseen_worlds", "nav_open"} <= set(tracks)
+    assert tracks["few_labels"].params["labels"] == [12, 25, 50]
+    unseen = tracks["unseen_worlds"]
+    assert not set(unseen.fit_world_seeds) & set(unseen.world_seeds)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda d: d.update(schema_version=2), "unknown schema_version 2"),
+        (lambda d: d.pop("world_seeds"), "missing field 'world_seeds'"),
+        (lambda d: d["params"].pop("n_test"), "missing field 'params.n_test'"),
+        (lambda d: d.update(world_seeds=[100, 3]), "world_seeds 3 is a development seed"),
+        (lambda d: d.update(seed=0), "seed 0 is a development seed"),
+        (lambda d: d.update(colour="red"), "unknown field 'colour'"),
+        (lambda d: d.update(kind="navigation"), "does not match evaluation"),
+    ],
+)
+def test_bad_track_is_refused_naming_the_value(change, message):
+    data = copy.deepcopy(TINY)
+    change(data)
+    with pytest.raises(TrackError, match=message):
+        track_from_dict(data, "tiny.json")
+
+
+def test_navigation_episode_seeds_must_avoid_the_readme_episodes():
+    data = json.loads((ROOT / "eval" / "tracks" / "nav_open.json").read_text())
+    data["params"]["episode_seed"] = 950  # episodes 950..1049 reach the README's 1000-1099
+    with pytest.raises(TrackError, match="params.episode_seed 1000 is a development seed"):
+        track_from_dict(data, "nav_open.json")
+
+
+def test_track_name_must_match_its_file(tmp_path):
+    path = tmp_path / "other.json"
+    path.write_text(json.dumps(TINY))
+    with pytest.raises(TrackError, match="differs from the file name 'other'"):
+        load_track(path)
+
+
+# ---------------------------------------------------------------------------- plug-ins
+
+SPY = "from pathlib import Path\nPath(__file__).with_name('{name}.imported').write_text('x')\n"
+
+
+def test_plugin_without_protocol_names_what_is_missing(tmp_path):
+    no_factory = tmp_path / "no_factory.py"
+    no_factory.write_text(
+        "from dataclasses import dataclass\n@dataclass\nclass Args:\n  a: int = 1\n"
+    )
+    with pytest.raises(PluginError, match="neither make_method"):
+        load_method(no_factory)
+    no_args = tmp_path / "no_args.py"
+    no_args.write_text("def make_method(**kw):\n    return None\n")
+    with pytest.raises(PluginError, match="no Args dataclass"):
+        load_method(no_args)
+    not_a_method = tmp_path / "not_a_method.py"
+    not_a_method.write_text(
+        "from dataclasses import dataclass\n@dataclass\nclass Args:\n  a: int = 1\n"
+        "class M:\n  name = 'm'\n  def fit(self, v): return self\n"
+        "def make_method(**kw):\n  return M()\n"
+    )
+    with pytest.raises(PluginError, match=r"missing or wrong: \['transform'\]"):
+        load_method(not_a_method)
+    with pytest.raises(ValueError, match="unknown argument 'n_band'"):
+        load_method(BAND_MEANS, {"n_band": 3})
+
+
+def test_loading_a_plugin_imports_nothing_else_from_its_folder(tmp_path):
+    folder = tmp_path / "pkg"
+    folder.mkdir()
+    (folder / "__init__.py").write_text(SPY.format(name="init"))
+    (folder / "helpers.py").write_text(SPY.format(name="helpers"))
+    (folder / "method.py").write_text(BAND_MEANS.read_text())
+    path_before, modules_before = list(sys.path), set(sys.modules)
+    method = load_method(folder / "method.py", {"n_bands": 2})
+    assert method.name == "band_means" and method.args.n_bands == 2
+    assert not list(folder.glob("*.imported"))
+    assert sys.path == path_before
+    new = set(sys.modules) - modules_before
+    assert all(name.startswith("sfa_gym_plugin_method_") for name in new), new
+
+
+# ------------------------------------------------------------------------------- cache
+
+
+def _request(seed: int = 7001) -> RunRequest:
+    return RunRequest(
+        world="paper_sim",
+        world_seed=100,
+        panorama=(8, 24),
+        driver=GridPositions(n=2, seed=seed, order="raster"),
+        seed=seed,
+    )
+
+
+def _ask(root: str) -> list:
+    run = RunCache(root).get(_request())
+    return np.asarray(run.panoramas).tolist()
+
+
+def test_two_processes_asking_for_the_same_run_render_it_once(tmp_path):
+    context = multiprocessing.get_context("spawn")
+    with context.Pool(2) as pool:
+        first, second = pool.map(_ask, [str(tmp_path)] * 2)
+    cache = RunCache(tmp_path)
+    assert len(cache.renders()) == 1
+    assert first == second
+    assert len(list(tmp_path.glob("*.run"))) == 1
+    assert not list(tmp_path.glob(".*tmp*"))
+
+
+def test_a_truncated_entry_is_detected_and_rendered_again(tmp_path):
+    cache = RunCache(tmp_path)
+    before = np.asarray(cache.get(_request()).panoramas)
+    chunk = next(cache.path(_request()).glob("chunk-*.npz"))
+    data = chunk.read_bytes()
+    chunk.write_bytes(data[: len(data) // 2])
+    after = np.asarray(cache.get(_request()).panoramas)
+    assert len(cache.renders()) == 2
+    np.testing.assert_array_equal(before, after)
+    assert chunk.read_bytes() == data
+    # what determines the pixels is in the key: another heading seed is another entry
+    assert cache.path(_request(seed=7002)) != cache.path(_request())
+
+
+# ---------------------------------------------------------------------- backends, CLI
+
+
+def test_local_and_ray_backends_give_the_same_scores(tmp_path):
+    pytest.importorskip("ray", reason="ray is not installed (pip install 'sfa-gym[ray]')")
+    import ray
+
+    from sfa_gym.leaderboard.backends import run_tasks
+    from sfa_gym.leaderboard.evaluate import Task
+
+    track = _write_track(tmp_path / "tracks", TINY)
+    tasks = [
+        Task(str(track), str(BAND_MEANS), {}, seed, False, str(tmp_path / "cache"))
+        for seed in (100, 101)
+    ]
+    local = run_tasks(tasks, "local")
+    try:
+        remote = run_tasks(tasks, "ray", num_cpus=2)
+    finally:
+        ray.shutdown()
+    assert [o["scores"] for o in local] == [o["scores"] for o in remote]
+    assert local[0]["scores"]["score"] != local[1]["scores"]["score"]  # two different worlds
+    assert len(RunCache(tmp_path / "cache").renders()) == 2  # Ray reused the local renders
+
+
+def test_ray_backend_without_ray_names_the_extra(monkeypatch):
+    from sfa_gym.leaderboard import backends
+
+    monkeypatch.setitem(sys.modules, "ray", None)
+    with pytest.raises(ImportError, match=r"pip install 'sfa-gym\[ray\]'"):
+        backends.run_tasks([], "ray")
+
+
+def test_cli_run_and_table_write_results_with_provenance(tmp_path, capsys):
+    from sfa_gym.cli.main import main
+
+    tracks = tmp_path / "tracks"
+    _write_track(tracks, TINY)
+    results = tmp_path / "results"
+    common = ["--tracks", str(tracks), "--results", str(results), "--cache", str(tmp_path / "c")]
+    status = main(
+        ["leaderboard", "run", "--method", str(BAND_MEANS), "--track", "tiny", "--quick", *common]
+    )
+    assert status == 0
+    result = json.loads((results / "tiny" / "band_means.quick.json").read_text())
+    assert result["schema_version"] == 1 and result["track"]["track_version"] == 1
+    assert [t["world_seed"] for t in result["tasks"]] == [100]  # quick: the first world seed
+    assert result["score"]["n"] == 1 and result["score"]["ci95"] is None
+    assert result["method"]["args"] == {} and result["method"]["all_args"]["n_bands"] == 8
+    assert result["provenance"]["sfa_gym_version"] and result["provenance"]["backend"] == "local"
+    assert 0 < result["score"]["mean"] < 50  # MAE in % of the range: far better than chance
+
+    status = main(
+        [
+            "leaderboard",
+            "run",
+            "--method",
+            str(BAND_MEANS),
+            "--track",
+            "tiny",
+            "--method-args",
+            "n_bands=2",
+            *common,
+        ]
+    )
+    assert status == 0
+    full = json.loads((results / "tiny" / "band_means[n_bands=2].json").read_text())
+    assert full["score"]["n"] == 2 and full["score"]["interval"] == "t"
+    lo, hi = full["score"]["ci95"]
+    assert lo < full["score"]["mean"] < hi
+
+    assert main(["leaderboard", "table", "--results", str(results)]) == 0
+    table = (results / "LEADERBOARD.md").read_text()
+    assert "| band_means[n_bands=2] |" in table and "tiny (quick)" in table
+    assert (results / "leaderboard.png").stat().st_size > 1000
+
+    assert main(["leaderboard", "run", "--method", str(BAND_MEANS), "--track", "nope", *common])
+    assert "'nope' is not a track" in capsys.readouterr().err
