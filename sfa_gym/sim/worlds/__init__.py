@@ -4,8 +4,11 @@ from __future__ import annotations
 
 from sfa_gym.sim.worlds.build import MJCFParts, World, WorldLayout, build_world
 from sfa_gym.sim.worlds.spec import (
+    BuildingsSpec,
     InteriorWallsSpec,
+    ItemsSpec,
     ObstaclesSpec,
+    OutdoorSpec,
     WorldSpec,
     available_worlds,
     load_world_spec,
@@ -13,9 +16,12 @@ from sfa_gym.sim.worlds.spec import (
 )
 
 __all__ = [
+    "BuildingsSpec",
     "InteriorWallsSpec",
+    "ItemsSpec",
     "MJCFParts",
     "ObstaclesSpec",
+    "OutdoorSpec",
     "World",
     "WorldLayout",
     "WorldSpec",

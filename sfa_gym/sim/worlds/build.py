@@ -11,7 +11,11 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sfa_gym.sim.worlds.spec import ColourRange, SurfaceSpec, WorldSpec
+from sfa_gym.sim.worlds._mjcf import Builder as _Builder
+from sfa_gym.sim.worlds._mjcf import num as _num
+from sfa_gym.sim.worlds._mjcf import vec as _vec
+from sfa_gym.sim.worlds.outdoor import build_outdoor, outer_reach
+from sfa_gym.sim.worlds.spec import ColourRange, WorldSpec
 
 
 @dataclass(frozen=True)
@@ -98,57 +102,6 @@ class World:
     layout: WorldLayout
 
 
-def _num(x: float) -> str:
-    # Fixed precision keeps the MJCF text identical for identical seeds on every platform.
-    s = f"{x:.4f}".rstrip("0").rstrip(".")
-    return "0" if s in ("-0", "") else s
-
-
-def _vec(*xs: float) -> str:
-    return " ".join(_num(x) for x in xs)
-
-
-class _Builder:
-    """Accumulates assets and geoms while drawing from one random generator, in a fixed order."""
-
-    def __init__(self, spec: WorldSpec, rng: np.random.Generator):
-        self.spec = spec
-        self.rng = rng
-        self.assets: list[str] = []
-        self.body: list[str] = []
-        self.n_materials = 0
-
-    def plain_material(self, rgb: tuple[float, float, float]) -> str:
-        name = f"mat{self.n_materials}"
-        self.n_materials += 1
-        self.assets.append(
-            f'<material name="{name}" rgba="{_vec(*rgb, 1.0)}" specular="0" shininess="0"/>'
-        )
-        return name
-
-    def surface_material(self, surface: SurfaceSpec) -> str:
-        """A textured material drawn from ``surface``: kind, two colours, repeat, marks."""
-        rng = self.rng
-        kind = surface.textures[int(rng.integers(len(surface.textures)))]
-        rgb1, rgb2 = surface.colours.draw(rng), surface.colours.draw(rng)
-        mark_rgb = surface.colours.draw(rng)
-        repeat = rng.uniform(*surface.repeat)
-        name = f"mat{self.n_materials}"
-        self.n_materials += 1
-        marks = ""
-        if surface.marks > 0:
-            marks = f' mark="random" random="{_num(surface.marks)}" markrgb="{_vec(*mark_rgb)}"'
-        self.assets.append(
-            f'<texture name="tex_{name}" type="2d" builtin="{kind}" rgb1="{_vec(*rgb1)}" '
-            f'rgb2="{_vec(*rgb2)}" width="128" height="128"{marks}/>'
-        )
-        self.assets.append(
-            f'<material name="{name}" texture="tex_{name}" texrepeat="{_vec(repeat, repeat)}" '
-            f'texuniform="true" specular="0" shininess="0"/>'
-        )
-        return name
-
-
 def _wall_panels(b: _Builder) -> None:
     arena = b.spec.arena
     hx, hy = arena.size[0] / 2, arena.size[1] / 2
@@ -175,6 +128,37 @@ def _wall_panels(b: _Builder) -> None:
                 f'<geom name="wall{w}_{p}" type="box" pos="{_vec(*pos)}" '
                 f'size="{_vec(t / 2, half, h / 2)}" euler="0 0 {yaw}" material="{mat}"/>'
             )
+
+
+_CURB_RGB = (0.62, 0.62, 0.6)
+_MARKING_RGB = (0.92, 0.92, 0.86)
+
+
+def _boundary(b: _Builder) -> None:
+    """The arena's boundary: wall panels, curbs (low boxes the rover collides with, just outside
+    ``size``) or a painted line (visual only, just inside ``size`` on the floor)."""
+    arena = b.spec.arena
+    if arena.boundary == "walls":
+        _wall_panels(b)
+        return
+    hx, hy, w = arena.size[0] / 2, arena.size[1] / 2, arena.border_width
+    if arena.boundary == "curbs":
+        mat = b.plain_material(_CURB_RGB)
+        # the x curbs are long enough to close the corners
+        sides = [(hx + w, w / 2, 0.0, hy + w / 2), (w / 2, hy, hx + w / 2, 0.0)]
+        z, half_z, contact = arena.curb_height / 2, arena.curb_height / 2, ""
+    else:
+        mat = b.plain_material(_MARKING_RGB)
+        sides = [(hx, w / 2, 0.0, hy - w / 2), (w / 2, hy - w, hx - w / 2, 0.0)]
+        # a paint layer a millimetre above the floor tile, which lies a millimetre above the ground
+        z, half_z, contact = 0.0015, 0.0005, ' contype="0" conaffinity="0"'
+    for k, (sx, sy, px, py) in enumerate(s for s in sides for _ in range(2)):
+        sign = 1 if k % 2 == 0 else -1
+        b.body.append(
+            f'<geom name="{arena.boundary[:-1]}{k}" type="box" '
+            f'pos="{_vec(sign * px, sign * py, z)}" size="{_vec(sx, sy, half_z)}" '
+            f'material="{mat}"{contact}/>'
+        )
 
 
 def _square_distance(azimuth: float, hx: float, hy: float) -> float:
@@ -360,19 +344,30 @@ def _interior_walls(b: _Builder) -> list[str]:
     return geoms
 
 
+def _light(name: str, az: float, el: float, diffuse: float) -> str:
+    """A directional light shining from azimuth ``az`` and elevation ``el`` (radians)."""
+    # The light shines *from* (az, el), so its direction points the other way.
+    d = (-math.cos(el) * math.cos(az), -math.cos(el) * math.sin(az), -math.sin(el))
+    return (
+        f'<light name="{name}" type="directional" dir="{_vec(*d)}" '
+        f'diffuse="{_vec(*(diffuse,) * 3)}" specular="0 0 0" ambient="0 0 0" '
+        f'castshadow="false"/>'
+    )
+
+
 def _lights(b: _Builder) -> None:
     lights = b.spec.lights
+    # with a sun (moved over the day at run time) the other lights are the sky's fill light
+    prefix = "sun" if lights.sun is None else "sky"
+    if lights.sun is not None:
+        sun = lights.sun
+        az, el = math.radians(sun.azimuth_deg), math.radians(sun.elevation_deg)
+        b.body.append(_light("sun", az, el, sun.diffuse))
     for i, light in enumerate(lights.directional):
         az = math.radians(light.azimuth_deg + b.rng.uniform(-1, 1) * lights.jitter_deg)
         el = light.elevation_deg + b.rng.uniform(-1, 1) * lights.jitter_deg
         el = math.radians(min(90.0, max(1.0, el)))
-        # The light shines *from* (az, el), so its direction points the other way.
-        d = (-math.cos(el) * math.cos(az), -math.cos(el) * math.sin(az), -math.sin(el))
-        b.body.append(
-            f'<light name="sun{i}" type="directional" dir="{_vec(*d)}" '
-            f'diffuse="{_vec(*(light.diffuse,) * 3)}" specular="0 0 0" ambient="0 0 0" '
-            f'castshadow="false"/>'
-        )
+        b.body.append(_light(f"{prefix}{i}", az, el, light.diffuse))
 
 
 def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = None) -> World:
@@ -405,8 +400,10 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
     ground = b.surface_material(spec.ground)
     floor = b.surface_material(spec.floor)
     reach = max(hx, hy) + arena.wall_thickness + spec.landmarks.clearance + spec.landmarks.depth
+    if spec.outdoor is not None:
+        reach = max(reach, outer_reach(spec.outdoor, arena.size))
     ground_half = 4 * reach
-    _wall_panels(b)
+    _boundary(b)
     # The rover drives on the ground plane (plane contacts are exact and cheap); the floor
     # is a visual tile lying a millimetre above it.
     b.body.append(
@@ -415,6 +412,8 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
     )
     obstacles = _obstacles(b)
     landmarks = _landmarks(b)
+    if spec.outdoor is not None:
+        landmarks += build_outdoor(b)
     # Geoms are drawn in model order: near occluders first and the ground last lets the
     # depth test discard hidden ground pixels early (about 10 % faster on llvmpipe). The
     # plane's third size is its rendering grid: with directional and ambient light only, one

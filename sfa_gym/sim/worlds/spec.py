@@ -7,6 +7,11 @@ add obstacles and interior walls inside the arena. The spec (see
 counts; the world seed draws one world from those ranges with ``np.random.default_rng``:
 the same spec and seed give the identical MJCF string, another seed gives another world.
 
+Outdoor worlds (``envs/paper_outdoor.json``) replace the walls by curbs or painted markings
+(``arena.boundary``) and add an ``outdoor`` block: pavement, grass, building facades, trees,
+parked cars, fences, lamp posts and bushes around the area (drawn by
+:mod:`sfa_gym.sim.worlds.outdoor`), lit by a light named ``"sun"`` (``lights.sun``).
+
 Lighting is chosen for an omnidirectional camera made of several pinhole cameras: the
 headlight (which MuJoCo attaches to whichever camera renders) carries ambient light only,
 because a directional headlight would light a surface differently in each pinhole camera
@@ -36,6 +41,7 @@ from sfa_gym.sim.worlds.data import envs_dir
 
 TEXTURE_KINDS = ("checker", "gradient", "flat")
 LANDMARK_KINDS = ("tree", "pillar", "box")
+BOUNDARY_KINDS = ("walls", "curbs", "markings")
 OBSTACLE_KINDS = ("box", "cylinder")
 
 
@@ -108,6 +114,12 @@ class ArenaSpec:
         wall_height: height of the walls.
         wall_thickness: thickness of the walls.
         panels_per_wall: each wall is split into this many panels with their own texture.
+        boundary: what bounds the arena: "walls" (panels of ``wall_height``), "curbs" (low
+            concrete boxes of ``curb_height`` that the rover collides with) or "markings" (a
+            painted line on the floor, visual only). Curbs stand just outside ``size`` like
+            the walls, the line just inside it; the wall fields only apply to "walls".
+        curb_height: height of the curbs (m).
+        border_width: width of a curb or of the painted line (m).
     """
 
     size: tuple[float, float] = (7.0, 7.0)
@@ -115,8 +127,17 @@ class ArenaSpec:
     wall_height: float = 0.8
     wall_thickness: float = 0.1
     panels_per_wall: int = 4
+    boundary: str = "walls"
+    curb_height: float = 0.12
+    border_width: float = 0.15
 
     def __post_init__(self) -> None:
+        if self.boundary not in BOUNDARY_KINDS:
+            raise ValueError(
+                f"arena boundary must be one of {BOUNDARY_KINDS}, got {self.boundary!r}"
+            )
+        for name in ("curb_height", "border_width"):
+            _check_positive(getattr(self, name), f"arena {name}")
         for i, s in enumerate(self.size):
             _check_positive(s, f"arena size[{i}]")
         for name in ("margin", "wall_height", "wall_thickness"):
@@ -277,11 +298,16 @@ class LightsSpec:
         ambient: ambient intensity (0..1) that reaches every face.
         directional: the directional lights.
         jitter_deg: each light's azimuth and elevation vary by up to this much per world.
+        sun: an optional light named ``"sun"`` in the model, for worlds whose sun moves over
+            the day (the dynamics turn and tint it at run time); with a sun, the
+            ``directional`` lights are named ``"sky0"``, ``"sky1"``, ... (light from the sky),
+            without one ``"sun0"``, ``"sun1"``, ...
     """
 
     ambient: float = 0.35
     directional: tuple[DirectionalLight, ...] = ()
     jitter_deg: float = 0.0
+    sun: DirectionalLight | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.ambient <= 1.0:
@@ -296,6 +322,104 @@ class SkySpec:
 
     zenith: ColourRange = ColourRange((0.55, 0.65), (0.5, 0.8), (0.6, 0.9))
     horizon: ColourRange = ColourRange((0.55, 0.65), (0.05, 0.25), (0.85, 1.0))
+
+
+@dataclass(frozen=True)
+class ItemsSpec:
+    """One kind of object of an outdoor world's surroundings: how many, how big, what colour.
+
+    Attributes:
+        count: how many (for fences: how many fence runs); fewer where there is no room,
+            e.g. cars whose places in the row fall on a neighbouring side's buildings.
+        height: range of heights (m).
+        width: range of widths (m): crown diameter of a tree or bush, a car's width (its length
+            is about 2.3 times that), the spread of a lamp post's head, a fence run's length.
+        colours: range of colours (crowns, car bodies, lamp posts, fence rails and posts).
+    """
+
+    count: int = 0
+    height: tuple[float, float] = (1.0, 2.0)
+    width: tuple[float, float] = (0.5, 1.0)
+    colours: ColourRange = ColourRange()
+
+    def __post_init__(self) -> None:
+        if self.count < 0:
+            raise ValueError(f"outdoor item count must be >= 0, got {self.count}")
+        _check_range(self.height, "outdoor item height", low=1e-3)
+        _check_range(self.width, "outdoor item width", low=1e-3)
+
+
+@dataclass(frozen=True)
+class BuildingsSpec:
+    """Rows of building facades along some sides of an outdoor area.
+
+    Attributes:
+        sides: range ``[min, max]`` of how many of the four sides get a row of buildings; the
+            world seed picks how many and which.
+        distance: range of distances from the asphalt's edge to a facade (m).
+        length: range of a building's length along its side (m).
+        depth: range of a building's depth (m).
+        storeys: range ``[min, max]`` of storeys.
+        storey_height: height of one storey (m); the windows repeat at this pitch.
+        window_pitch: horizontal distance between windows (m).
+        colours: range of facade colours.
+        windows: range of window (glass) colours.
+    """
+
+    sides: tuple[int, int] = (2, 3)
+    distance: tuple[float, float] = (4.0, 12.0)
+    length: tuple[float, float] = (6.0, 14.0)
+    depth: tuple[float, float] = (6.0, 10.0)
+    storeys: tuple[int, int] = (2, 5)
+    storey_height: float = 3.0
+    window_pitch: float = 2.5
+    colours: ColourRange = ColourRange((0.0, 0.15), (0.1, 0.5), (0.5, 0.9))
+    windows: ColourRange = ColourRange((0.55, 0.65), (0.2, 0.5), (0.15, 0.35))
+
+    def __post_init__(self) -> None:
+        _check_range(self.sides, "buildings sides", low=0)
+        if self.sides[1] > 4:
+            raise ValueError(f"buildings sides must lie in [0, 4], got {list(self.sides)}")
+        _check_range(self.storeys, "buildings storeys", low=1)
+        for name in ("distance", "length", "depth"):
+            _check_range(getattr(self, name), f"buildings {name}", low=1e-3)
+        for name in ("storey_height", "window_pitch"):
+            _check_positive(getattr(self, name), f"buildings {name}")
+
+
+@dataclass(frozen=True)
+class OutdoorSpec:
+    """The surroundings of an outdoor world, drawn from the world seed (see
+    :mod:`sfa_gym.sim.worlds.outdoor`): a pavement around the asphalt (the arena's ``floor``),
+    grass beyond (the ``ground``), building facades, trees in clusters, parked cars along one
+    side, fences, lamp posts and bushes. Everything stands outside the arena and is visual only.
+
+    Attributes:
+        pavement: the pavement's surface.
+        pavement_width: width of the pavement around the asphalt (m).
+        buildings: the building rows.
+        trees: trees (trunk and crown); ``tree_clusters`` groups of them.
+        tree_clusters: number of tree clusters.
+        cars: parked cars (body, cabin, wheels).
+        fences: fence runs (posts and two rails).
+        lamp_posts: lamp posts along the pavement.
+        bushes: bushes along the pavement.
+    """
+
+    pavement: SurfaceSpec = SurfaceSpec()
+    pavement_width: float = 1.5
+    buildings: BuildingsSpec = BuildingsSpec()
+    trees: ItemsSpec = ItemsSpec()
+    tree_clusters: int = 3
+    cars: ItemsSpec = ItemsSpec()
+    fences: ItemsSpec = ItemsSpec()
+    lamp_posts: ItemsSpec = ItemsSpec()
+    bushes: ItemsSpec = ItemsSpec()
+
+    def __post_init__(self) -> None:
+        _check_positive(self.pavement_width, "outdoor pavement_width")
+        if self.tree_clusters < 1:
+            raise ValueError(f"outdoor tree_clusters must be >= 1, got {self.tree_clusters}")
 
 
 @dataclass(frozen=True)
@@ -317,6 +441,7 @@ class WorldSpec:
     interior_walls: InteriorWallsSpec = InteriorWallsSpec()
     lights: LightsSpec = LightsSpec()
     sky: SkySpec = SkySpec()
+    outdoor: OutdoorSpec | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:

@@ -1,0 +1,61 @@
+"""The MJCF text builder that the world generators share: fixed-precision numbers and an
+accumulator of assets and geoms that draws from one random generator in a fixed order."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sfa_gym.sim.worlds.spec import SurfaceSpec, WorldSpec
+
+__all__ = ["Builder", "num", "vec"]
+
+
+def num(x: float) -> str:
+    # Fixed precision keeps the MJCF text identical for identical seeds on every platform.
+    s = f"{x:.4f}".rstrip("0").rstrip(".")
+    return "0" if s in ("-0", "") else s
+
+
+def vec(*xs: float) -> str:
+    return " ".join(num(x) for x in xs)
+
+
+class Builder:
+    """Accumulates assets and geoms while drawing from one random generator, in a fixed order."""
+
+    def __init__(self, spec: WorldSpec, rng: np.random.Generator):
+        self.spec = spec
+        self.rng = rng
+        self.assets: list[str] = []
+        self.body: list[str] = []
+        self.n_materials = 0
+
+    def plain_material(self, rgb: tuple[float, float, float]) -> str:
+        name = f"mat{self.n_materials}"
+        self.n_materials += 1
+        self.assets.append(
+            f'<material name="{name}" rgba="{vec(*rgb, 1.0)}" specular="0" shininess="0"/>'
+        )
+        return name
+
+    def surface_material(self, surface: SurfaceSpec) -> str:
+        """A textured material drawn from ``surface``: kind, two colours, repeat, marks."""
+        rng = self.rng
+        kind = surface.textures[int(rng.integers(len(surface.textures)))]
+        rgb1, rgb2 = surface.colours.draw(rng), surface.colours.draw(rng)
+        mark_rgb = surface.colours.draw(rng)
+        repeat = rng.uniform(*surface.repeat)
+        name = f"mat{self.n_materials}"
+        self.n_materials += 1
+        marks = ""
+        if surface.marks > 0:
+            marks = f' mark="random" random="{num(surface.marks)}" markrgb="{vec(*mark_rgb)}"'
+        self.assets.append(
+            f'<texture name="tex_{name}" type="2d" builtin="{kind}" rgb1="{vec(*rgb1)}" '
+            f'rgb2="{vec(*rgb2)}" width="128" height="128"{marks}/>'
+        )
+        self.assets.append(
+            f'<material name="{name}" texture="tex_{name}" texrepeat="{vec(repeat, repeat)}" '
+            f'texuniform="true" specular="0" shininess="0"/>'
+        )
+        return name

@@ -1,0 +1,407 @@
+"""The surroundings of an outdoor world: pavement, buildings, trees, cars, fences, lamps, bushes.
+
+:func:`build_outdoor` draws one set of surroundings from an :class:`OutdoorSpec` and the world's
+random generator and appends the geoms to a world under construction (see
+:func:`sfa_gym.sim.worlds.build.build_world`, which calls it for specs with an ``outdoor``
+block). The arena (the asphalt, ``arena.size``) is centred on the origin; its sides are named
+by their outward direction: north +y, east +x, south -y, west -x.
+
+Around the asphalt lies a pavement ring, then grass (the world's ground plane). Building rows
+stand along some sides, a row of parked cars along one side, fence runs and bushes beyond the
+pavement, lamp posts on it and trees in clusters wherever there is room. Everything is axis
+aligned and placed so that footprints do not overlap (rectangles kept ``_GAP`` apart); all of it
+is visual only (``contype="0"``): the rover cannot reach it past the curbs, and visual-only
+geoms cost nothing in collision detection.
+
+Window grids are MuJoCo builtin textures (``builtin="flat"`` with ``mark="edge"``: glass
+coloured tiles framed by facade-coloured edges) repeated once per window pitch and storey.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from sfa_gym.sim.worlds._mjcf import Builder as _Builder
+from sfa_gym.sim.worlds._mjcf import vec as _vec
+from sfa_gym.sim.worlds.spec import ColourRange, ItemsSpec, OutdoorSpec
+
+Rect = tuple[float, float, float, float]
+"""``(xmin, xmax, ymin, ymax)`` of an axis-aligned footprint, metres."""
+
+Landmark = tuple[str, float, float, float]
+"""``(kind, x, y, height)`` as in :attr:`WorldLayout.landmarks`."""
+
+_GAP = 0.3  # free space kept between footprints (m)
+_CAR_LENGTH = 2.3  # car length / car width
+_CAR_WHEEL = 0.32  # car wheel radius (m)
+_GLASS = (0.14, 0.17, 0.22)
+_RUBBER = (0.06, 0.06, 0.06)
+_LAMP = (0.95, 0.93, 0.8)
+_BARK = ColourRange((0.05, 0.1), (0.4, 0.7), (0.2, 0.35))
+
+
+@dataclass(frozen=True)
+class _Side:
+    """One side of the asphalt: its outward normal, tangent, the distance of its edge from the
+    centre and its half length along the tangent (m)."""
+
+    name: str
+    normal: tuple[float, float]
+    tangent: tuple[float, float]
+    edge: float
+    half: float
+
+    def point(self, out: float, along: float) -> tuple[float, float]:
+        """The point ``out`` metres from the centre along the normal and ``along`` metres
+        along the tangent."""
+        return (
+            self.normal[0] * out + self.tangent[0] * along,
+            self.normal[1] * out + self.tangent[1] * along,
+        )
+
+    def rect(self, out: float, along: float, depth: float, length: float) -> Rect:
+        """Footprint centred at :meth:`point` ``(out, along)``, ``depth`` along the normal and
+        ``length`` along the tangent."""
+        x, y = self.point(out, along)
+        hx, hy = (depth / 2, length / 2) if self.normal[0] else (length / 2, depth / 2)
+        return (x - hx, x + hx, y - hy, y + hy)
+
+
+def _sides(hx: float, hy: float) -> list[_Side]:
+    return [
+        _Side("north", (0.0, 1.0), (1.0, 0.0), hy, hx),
+        _Side("east", (1.0, 0.0), (0.0, 1.0), hx, hy),
+        _Side("south", (0.0, -1.0), (1.0, 0.0), hy, hx),
+        _Side("west", (-1.0, 0.0), (0.0, 1.0), hx, hy),
+    ]
+
+
+def _overlaps(a: Rect, b: Rect, gap: float = _GAP) -> bool:
+    return not (
+        a[1] + gap <= b[0] or b[1] + gap <= a[0] or a[3] + gap <= b[2] or b[3] + gap <= a[2]
+    )
+
+
+def _box_geom(name: str, rect: Rect, z0: float, z1: float, material: str) -> str:
+    """An axis-aligned box over ``rect`` from height ``z0`` to ``z1``."""
+    x0, x1, y0, y1 = rect
+    return (
+        f'<geom name="{name}" type="box" pos="{_vec((x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2)}" '
+        f'size="{_vec((x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2)}" material="{material}" '
+        f'contype="0" conaffinity="0"/>'
+    )
+
+
+class _Scene:
+    """Footprints taken so far, the geoms and the landmarks, while drawing from one generator."""
+
+    def __init__(self, b: _Builder, spec: OutdoorSpec):
+        self.b = b
+        self.rng = b.rng
+        self.spec = spec
+        arena = b.spec.arena
+        self.hx, self.hy = arena.size[0] / 2, arena.size[1] / 2
+        self.sides = _sides(self.hx, self.hy)
+        pw = spec.pavement_width
+        # the asphalt and the pavement around it stay free of everything but lamp posts
+        self.taken: list[Rect] = [(-self.hx - pw, self.hx + pw, -self.hy - pw, self.hy + pw)]
+        self.geoms: list[str] = []
+        self.landmarks: list[Landmark] = []
+        self.materials: dict[tuple[float, float, float], str] = {}
+
+    def free(self, rect: Rect) -> bool:
+        return not any(_overlaps(rect, t) for t in self.taken)
+
+    def try_place(self, draw: Callable[[], Rect], attempts: int) -> Rect | None:
+        """The first of up to ``attempts`` footprints ``draw()`` that is free; it is taken."""
+        for _ in range(attempts):
+            rect = draw()
+            if self.free(rect):
+                self.taken.append(rect)
+                return rect
+        return None
+
+    def material(self, rgb: tuple[float, float, float]) -> str:
+        """A matte material of colour ``rgb``, shared by every geom of that colour."""
+        if rgb not in self.materials:
+            self.materials[rgb] = self.b.plain_material(rgb)
+        return self.materials[rgb]
+
+    def name(self, kind: str) -> str:
+        return f"{kind}{sum(1 for k, *_ in self.landmarks if k == kind)}"
+
+
+def _pavement(s: _Scene) -> None:
+    pw = s.spec.pavement_width
+    mat = s.b.surface_material(s.spec.pavement)
+    # half a millimetre under the asphalt tile and above the grass plane: no depth fighting
+    s.geoms.append(
+        f'<geom name="pavement" type="box" pos="0 0 -0.0045" '
+        f'size="{_vec(s.hx + pw, s.hy + pw, 0.005)}" material="{mat}" contype="0" '
+        f'conaffinity="0"/>'
+    )
+
+
+def _window_material(
+    s: _Scene,
+    facade: tuple[float, float, float],
+    glass: tuple[float, float, float],
+    columns: int,
+    storeys: int,
+) -> str:
+    """A facade with ``columns`` x ``storeys`` windows on every face of a box."""
+    b = s.b
+    name = f"mat{b.n_materials}"
+    b.n_materials += 1
+    # An 8-texel tile whose edge texels take the facade colour: one window per tile, framed.
+    # The repeat counts windows per face (texuniform="false"): MuJoCo's uniform mapping
+    # stretches the tiles over some faces of a box.
+    b.assets.append(
+        f'<texture name="tex_{name}" type="2d" builtin="flat" rgb1="{_vec(*glass)}" '
+        f'rgb2="{_vec(*glass)}" mark="edge" markrgb="{_vec(*facade)}" width="8" height="8"/>'
+    )
+    b.assets.append(
+        f'<material name="{name}" texture="tex_{name}" texrepeat="{columns} {storeys}" '
+        f'texuniform="false" specular="0" shininess="0"/>'
+    )
+    return name
+
+
+def _buildings(s: _Scene, car_side: _Side, car_band: float) -> None:
+    spec, rng = s.spec.buildings, s.rng
+    n = int(rng.integers(spec.sides[0], spec.sides[1] + 1))
+    order = rng.permutation(len(s.sides))
+    for side in (s.sides[i] for i in sorted(order[:n])):
+        # the row runs past the corners so that the street looks closed from inside
+        reach = side.half + s.spec.pavement_width + spec.distance[1]
+        along = -reach
+        while along < reach:
+            length = rng.uniform(*spec.length)
+            depth = rng.uniform(*spec.depth)
+            distance = rng.uniform(*spec.distance)
+            if side is car_side:
+                distance = max(distance, car_band)
+            storeys = int(rng.integers(spec.storeys[0], spec.storeys[1] + 1))
+            out = side.edge + distance + depth / 2
+            rect = side.rect(out, along + length / 2, depth, length)
+            along += length + rng.uniform(0.5, 4.0)
+            facade, glass = spec.colours.draw(rng), spec.windows.draw(rng)
+            if not s.free(rect):
+                continue  # a corner already built up by the neighbouring row
+            s.taken.append(rect)
+            columns = max(1, round(length / spec.window_pitch))
+            mat = _window_material(s, facade, glass, columns, storeys)
+            height = storeys * spec.storey_height
+            cx, cy = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
+            s.geoms.append(_box_geom(s.name("building"), rect, 0.0, height, mat))
+            s.landmarks.append(("building", cx, cy, height))
+
+
+def _cars(s: _Scene, side: _Side) -> None:
+    spec, rng = s.spec.cars, s.rng
+    out0 = side.edge + s.spec.pavement_width + 0.5
+    # the row is centred on the side, give or take a car; cars that would stand in a
+    # neighbouring side's buildings are left out
+    mean_pitch = _CAR_LENGTH * sum(spec.width) / 2 + 1.55
+    along = -spec.count * mean_pitch / 2 + rng.uniform(-2.0, 2.0)
+    for _ in range(spec.count):
+        width, height = rng.uniform(*spec.width), rng.uniform(*spec.height)
+        length = _CAR_LENGTH * width
+        rect = side.rect(out0 + width / 2, along + length / 2, width, length)
+        along += length + rng.uniform(0.6, 2.5)
+        body, cabin = s.material(spec.colours.draw(rng)), s.material(_GLASS)
+        if not s.free(rect):
+            continue
+        s.taken.append(rect)
+        name = s.name("car")
+        cx, cy = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
+        lengthwise_x = side.normal[0] == 0.0
+        z_body = 0.55 * height
+        s.geoms.append(_box_geom(name, rect, 0.22, z_body, body))
+        # the cabin: shorter and narrower than the body, shifted a little to the rear
+        ux, uy = (1.0, 0.0) if lengthwise_x else (0.0, 1.0)
+        shrink = (0.22 * length, 0.08 * width) if lengthwise_x else (0.08 * width, 0.22 * length)
+        cab = (
+            rect[0] + shrink[0] - 0.1 * length * ux,
+            rect[1] - shrink[0] - 0.1 * length * ux,
+            rect[2] + shrink[1] - 0.1 * length * uy,
+            rect[3] - shrink[1] - 0.1 * length * uy,
+        )
+        s.geoms.append(_box_geom(f"{name}_cabin", cab, z_body, height, cabin))
+        # one cylinder per axle, a little wider than the body: two dark wheels seen from a side
+        wheels = s.material(_RUBBER)
+        euler = "90 0 0" if lengthwise_x else "0 90 0"
+        for k, f in enumerate((-0.32, 0.32)):
+            wx, wy = cx + f * length * ux, cy + f * length * uy
+            s.geoms.append(
+                f'<geom name="{name}_axle{k}" type="cylinder" pos="{_vec(wx, wy, _CAR_WHEEL)}" '
+                f'size="{_vec(_CAR_WHEEL, width / 2 + 0.03)}" euler="{euler}" '
+                f'material="{wheels}" contype="0" conaffinity="0"/>'
+            )
+        s.landmarks.append(("car", cx, cy, height))
+
+
+def _fences(s: _Scene, car_side: _Side) -> None:
+    spec, rng = s.spec.fences, s.rng
+    others = [side for side in s.sides if side is not car_side]
+    for _ in range(spec.count):
+        side = others[int(rng.integers(len(others)))]
+        length, height = rng.uniform(*spec.width), rng.uniform(*spec.height)
+        colour = s.material(spec.colours.draw(rng))
+
+        def draw(side=side, length=length) -> Rect:
+            out = side.edge + s.spec.pavement_width + rng.uniform(1.0, 4.0)
+            along = rng.uniform(-side.half - 2.0, side.half + 2.0)
+            return side.rect(out, along, 0.06, length)
+
+        rect = s.try_place(draw, attempts=20)
+        if rect is None:
+            continue
+        name = s.name("fence")
+        along_x = side.normal[0] == 0.0
+        n_posts = max(2, math.ceil(length / 2.0) + 1)
+        for k in range(n_posts):
+            f = k / (n_posts - 1)
+            if along_x:
+                px, py = rect[0] + f * (rect[1] - rect[0]), (rect[2] + rect[3]) / 2
+            else:
+                px, py = (rect[0] + rect[1]) / 2, rect[2] + f * (rect[3] - rect[2])
+            post = (px - 0.04, px + 0.04, py - 0.04, py + 0.04)
+            s.geoms.append(_box_geom(f"{name}_post{k}", post, 0.0, height, colour))
+        for k, z in enumerate((0.35 * height, 0.85 * height)):
+            s.geoms.append(_box_geom(f"{name}_rail{k}", rect, z - 0.03, z + 0.03, colour))
+        cx, cy = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
+        s.landmarks.append(("fence", cx, cy, height))
+
+
+def _lamp_posts(s: _Scene) -> None:
+    spec, rng = s.spec.lamp_posts, s.rng
+    if spec.count == 0:
+        return
+    # evenly round the pavement's outer part, starting at a random point of its perimeter
+    inset = s.spec.pavement_width - 0.3
+    hx, hy = s.hx + inset, s.hy + inset
+    perimeter = 4 * (hx + hy)
+    start = rng.uniform(0.0, perimeter)
+    for k in range(spec.count):
+        p = (start + k * perimeter / spec.count) % perimeter
+        if p < 2 * hx:
+            x, y = -hx + p, -hy
+        elif p < 2 * hx + 2 * hy:
+            x, y = hx, -hy + p - 2 * hx
+        elif p < 4 * hx + 2 * hy:
+            x, y = hx - (p - 2 * hx - 2 * hy), hy
+        else:
+            x, y = -hx, hy - (p - 4 * hx - 2 * hy)
+        height, head = rng.uniform(*spec.height), rng.uniform(*spec.width)
+        pole = s.material(spec.colours.draw(rng))
+        name = s.name("lamp_post")
+        s.geoms.append(
+            f'<geom name="{name}" type="cylinder" pos="{_vec(x, y, height / 2)}" '
+            f'size="{_vec(0.05, height / 2)}" material="{pole}" contype="0" conaffinity="0"/>'
+        )
+        s.geoms.append(
+            f'<geom name="{name}_head" type="ellipsoid" pos="{_vec(x, y, height + 0.08)}" '
+            f'size="{_vec(head / 2, head / 2, 0.12)}" material="{s.material(_LAMP)}" '
+            f'contype="0" conaffinity="0"/>'
+        )
+        s.landmarks.append(("lamp_post", x, y, height))
+
+
+def _round_items(s: _Scene, kind: str, spec: ItemsSpec, centres: list[tuple[float, float]]) -> None:
+    """Trees (trunk and crown) or bushes, ``spec.count`` of them, near the ``centres`` in turn
+    (within ``3 + width`` metres of them)."""
+    rng = s.rng
+    for k in range(spec.count):
+        cx, cy = centres[k % len(centres)]
+        height, width = rng.uniform(*spec.height), rng.uniform(*spec.width)
+        r = width / 2
+        spread = 3.0 + width
+
+        def draw(cx=cx, cy=cy, r=r, spread=spread) -> Rect:
+            x, y = cx + rng.uniform(-spread, spread), cy + rng.uniform(-spread, spread)
+            # trees' footprints are their trunks plus a little: crowns may overlap
+            rt = r if kind == "bush" else 0.4
+            return (x - rt, x + rt, y - rt, y + rt)
+
+        colour = spec.colours.draw(rng)
+        rect = s.try_place(draw, attempts=30)
+        if rect is None:
+            continue
+        x, y = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
+        name = s.name(kind)
+        crown = s.material(colour)
+        if kind == "bush":
+            s.geoms.append(
+                f'<geom name="{name}" type="ellipsoid" pos="{_vec(x, y, height * 0.45)}" '
+                f'size="{_vec(r, r, height / 2)}" material="{crown}" contype="0" '
+                f'conaffinity="0"/>'
+            )
+        else:
+            trunk_h = height * rng.uniform(0.3, 0.45)
+            bark = s.material(_BARK.draw(rng))
+            s.geoms.append(
+                f'<geom name="{name}" type="cylinder" pos="{_vec(x, y, trunk_h / 2)}" '
+                f'size="{_vec(max(0.06, width * 0.05), trunk_h / 2)}" material="{bark}" '
+                f'contype="0" conaffinity="0"/>'
+            )
+            crown_h = height - trunk_h
+            s.geoms.append(
+                f'<geom name="{name}_crown" type="ellipsoid" '
+                f'pos="{_vec(x, y, trunk_h + crown_h * 0.45)}" '
+                f'size="{_vec(r, r, crown_h * 0.55)}" material="{crown}" contype="0" '
+                f'conaffinity="0"/>'
+            )
+        s.landmarks.append((kind, x, y, height))
+
+
+def _ring_points(s: _Scene, n: int, near: float, far: float) -> list[tuple[float, float]]:
+    """``n`` points at random azimuths, ``near`` .. ``far`` metres beyond the pavement."""
+    rng = s.rng
+    pw = s.spec.pavement_width
+    out = []
+    for _ in range(n):
+        side = s.sides[int(rng.integers(4))]
+        d = side.edge + pw + rng.uniform(near, far)
+        out.append(side.point(d, rng.uniform(-side.half - far, side.half + far)))
+    return out
+
+
+def outer_reach(spec: OutdoorSpec, size: tuple[float, float]) -> float:
+    """Largest distance (m) from the centre at which the surroundings may stand: for the
+    model's extent (near and far clipping planes) and the size of the ground plane."""
+    b = spec.buildings
+    half = max(size) / 2 + spec.pavement_width + b.distance[1]
+    return math.hypot(half + b.depth[1], half + b.length[1])
+
+
+def build_outdoor(b: _Builder) -> list[Landmark]:
+    """Draw the surroundings of ``b.spec.outdoor`` with ``b.rng`` into ``b``'s assets and body.
+
+    The order of the draws is fixed (pavement, car side, buildings, cars, fences, lamp posts,
+    tree clusters, bushes), so the same world seed gives the same surroundings.
+
+    Returns:
+        The landmarks ``(kind, x, y, height)``: kinds "building", "car", "fence", "lamp_post",
+        "tree", "bush"; ``(x, y)`` the footprint's centre (m, world frame).
+    """
+    spec = b.spec.outdoor
+    if spec is None:
+        raise ValueError(f"world {b.spec.name!r} has no outdoor block")
+    s = _Scene(b, spec)
+    _pavement(s)
+    car_side = s.sides[int(s.rng.integers(4))]
+    car_band = spec.pavement_width + 1.5 + 2 * (spec.cars.width[1] if spec.cars.count else 0.0)
+    _buildings(s, car_side, car_band)
+    _cars(s, car_side)
+    _fences(s, car_side)
+    _lamp_posts(s)
+    _round_items(s, "tree", spec.trees, _ring_points(s, spec.tree_clusters, 1.0, 6.0))
+    _round_items(s, "bush", spec.bushes, _ring_points(s, max(1, spec.bushes.count), 0.3, 1.5))
+    b.body.extend(s.geoms)
+    return s.landmarks
+
+
+__all__ = ["build_outdoor", "outer_reach"]
