@@ -8,7 +8,11 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-ENV_IDS = ("sfa_gym/OmniRover-v0", "sfa_gym/OmniRoverOutdoorCam-v0")
+ENV_IDS = (
+    "sfa_gym/OmniRover-v0",
+    "sfa_gym/OmniRoverOutdoorCam-v0",
+    "sfa_gym/OmniRoverOutdoor-v0",
+)
 """Exploration envs: no task, panorama observations."""
 NAV_ENV_IDS = (
     "sfa_gym/OmniRoverNav-v0",
@@ -40,6 +44,9 @@ def register_envs() -> None:
       (``paper_sim_obstacles``), 600 steps.
     * ``sfa_gym/OmniRoverNavMaze-v0``: the same with a plus-shaped wall through the arena
       (``paper_sim_maze``): straight lines between quadrants are blocked; 1000 steps.
+    * ``sfa_gym/OmniRoverOutdoor-v0``: the ``paper_outdoor`` world through the mirror camera
+      (60 x 600 unwarped panoramas), with its dynamics (sun over the day, clouds, movers) and
+      the camera's auto-exposure and noise; each effect can be switched off by a kwarg.
     """
     specs = {
         "sfa_gym/OmniRover-v0": (_ENTRY_POINT, _MAX_EPISODE_STEPS, {"world": "paper_sim"}),
@@ -55,6 +62,18 @@ def register_envs() -> None:
             {"world": "paper_sim_obstacles"},
         ),
         "sfa_gym/OmniRoverNavMaze-v0": (_NAV_ENTRY_POINT, _MAZE_STEPS, {"world": "paper_sim_maze"}),
+        "sfa_gym/OmniRoverOutdoor-v0": (
+            _ENTRY_POINT,
+            _MAX_EPISODE_STEPS,
+            {
+                "world": "paper_outdoor",
+                "panorama": "paper_outdoor",
+                "camera": "mirror",
+                "mirror": "paper_outdoor",
+                "dynamics": True,
+                "sensor": True,
+            },
+        ),
     }
     for env_id, (entry_point, steps, kwargs) in specs.items():
         if env_id in gym.registry:

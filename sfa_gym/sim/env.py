@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from typing import Any
@@ -17,16 +18,27 @@ import gymnasium as gym  # noqa: E402
 import mujoco  # noqa: E402  (MUJOCO_GL must be set first)
 from gymnasium import spaces  # noqa: E402
 
-from sfa_gym.sim.camera import PanoramaSpec  # noqa: E402
+from sfa_gym.sim.camera import MirrorCamera, MirrorSpec, PanoramaSpec  # noqa: E402
 from sfa_gym.sim.camera.renderer import OmniCamera  # noqa: E402
+from sfa_gym.sim.camera.sensor import Sensor, SensorSpec, resolve_sensor  # noqa: E402
 from sfa_gym.sim.rover import WHEELS, RoverSpec, rover_mjcf, yaw_of_quat  # noqa: E402
 from sfa_gym.sim.worlds import WorldSpec, build_world, load_world_spec  # noqa: E402
+from sfa_gym.sim.worlds.dynamics import (  # noqa: E402
+    Dynamics,
+    DynamicsSpec,
+    resolve_dynamics,
+)
 
 _PANORAMA_PRESETS = {
     "paper_sim": PanoramaSpec.paper_sim,
     "paper_outdoor": PanoramaSpec.paper_outdoor,
 }
+_MIRROR_PRESETS = {"paper_outdoor": MirrorSpec.paper_outdoor}
+CAMERAS = ("cylindrical", "mirror", "mirror_circular")
+"""What the env's observation is: the cylindrical panorama, the mirror camera's unwarped
+panorama, or the mirror camera's circular image."""
 _SETTLE_SECONDS = 1.0
+_DAY_SECONDS = 86400.0
 
 
 def _positive(name: str, value: Any) -> float:
@@ -55,6 +67,12 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     panels, surrounded by trees, coloured pillars and blocks under a gradient sky. The drivable
     area is the central 6 m x 6 m square (0.5 m from the walls, so the rover fits everywhere);
     :meth:`grid_positions` gives the paper's 30 x 30 grid over it, 0.2 m apart.
+
+    The ``"paper_outdoor"`` world is a 6 m x 8 m asphalt area bounded by 0.12 m curbs (no
+    walls; a 5 m x 7 m drivable area), with a pavement, grass, building facades, trees, parked
+    cars, fences, lamp posts and bushes around it, drawn from the world seed. It declares
+    dynamics (:mod:`sfa_gym.sim.worlds.dynamics`): the sun (the light ``"sun"``) moves over the
+    day, clouds pass, pedestrians, a cyclist and cars come and go around the area.
 
     This env is for exploration and self-localization: it has no task and no reward.
     Navigation tasks are separate envs.
@@ -100,6 +118,10 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
 
     ``reset`` and ``step`` return the ground truth: ``"x"``, ``"y"`` (m, world frame),
     ``"yaw"`` (rad, wrapped to ``(-pi, pi]``) and ``"t"`` (simulated time since reset, s).
+    With dynamics, also ``"clock"``: the time of day, hours. A reset with a ``seed`` (and the
+    first reset) starts the clock at the dynamics' ``start_hour``, so a seed fixes every
+    pixel; a reset without a seed lets it run on from the last episode (the paper recorded its
+    test run right after the training run); ``reset(options={"time_of_day": h})`` sets it.
 
     ## Arguments
 
@@ -115,6 +137,19 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     * ``rover`` (None): a ``RoverSpec`` (geometry, masses, drive); None for the default.
     * ``render_mode`` (None): None or "rgb_array" (a top-down view of the arena).
     * ``render_size`` (256): side of the square top-down render, pixels.
+    * ``camera`` ("cylindrical"): the observation: the cylindrical panorama; "mirror", the
+      mirror camera's circular image unwarped to a panorama; or "mirror_circular", the
+      circular image itself (:mod:`sfa_gym.sim.camera.mirror`).
+    * ``mirror`` (None): the mirror camera, a ``MirrorSpec`` or a preset name
+      ("paper_outdoor", the default); a given ``panorama`` sets the unwarped size.
+    * ``dynamics`` (None): None runs what the world spec declares; False none; True the
+      world's or the default ``DynamicsSpec``; or a ``DynamicsSpec``.
+    * ``clock``, ``clouds``, ``movers`` (None): switch one effect of the dynamics on or off
+      (None keeps the spec's); ``start_hour`` (None): the time of day the clock starts at.
+    * ``sensor`` (None): the camera's auto-exposure and noise: None or False for none, True
+      for the default ``SensorSpec``, or a ``SensorSpec``; ``auto_exposure`` and
+      ``sensor_noise`` (None) switch its two effects. Noise is drawn from a generator seeded
+      from ``np_random`` on each reset (same seed, same noise).
 
     The env also offers :attr:`dt` (seconds per step), :attr:`arena_bounds` and
     :meth:`grid_positions` for drivers, and ``model``, ``data`` (MuJoCo), ``mjcf`` (the model's
@@ -152,9 +187,20 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         rover: RoverSpec | None = None,
         render_mode: str | None = None,
         render_size: int = 256,
+        camera: str = "cylindrical",
+        mirror: MirrorSpec | str | None = None,
+        dynamics: bool | DynamicsSpec | None = None,
+        clock: bool | None = None,
+        clouds: bool | None = None,
+        movers: bool | None = None,
+        start_hour: float | None = None,
+        sensor: bool | SensorSpec | None = None,
+        auto_exposure: bool | None = None,
+        sensor_noise: bool | None = None,
     ) -> None:
         self.world = world
         self.world_seed = world_seed
+        panorama_given = panorama is not None
         if panorama is None:
             panorama = PanoramaSpec.paper_sim()
         elif isinstance(panorama, str):
@@ -168,6 +214,36 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
             raise TypeError(
                 f"panorama must be a PanoramaSpec, a preset name or None, got {panorama!r}"
             )
+        if camera not in CAMERAS:
+            raise ValueError(f"camera must be one of {list(CAMERAS)}, got {camera!r}")
+        self.camera = camera
+        if camera == "cylindrical":
+            if mirror is not None:
+                raise ValueError(
+                    f"mirror={mirror!r} is for camera='mirror' or 'mirror_circular', not {camera!r}"
+                )
+            self.mirror: MirrorSpec | None = None
+        else:
+            if mirror is None:
+                mirror = MirrorSpec.paper_outdoor()
+            elif isinstance(mirror, str):
+                if mirror not in _MIRROR_PRESETS:
+                    raise ValueError(
+                        f"unknown mirror preset {mirror!r}; expected one of "
+                        f"{sorted(_MIRROR_PRESETS)} or a MirrorSpec"
+                    )
+                mirror = _MIRROR_PRESETS[mirror]()
+            elif not isinstance(mirror, MirrorSpec):
+                raise TypeError(
+                    f"mirror must be a MirrorSpec, a preset name or None, got {mirror!r}"
+                )
+            if panorama_given:  # an explicit panorama sets the size of the unwarped one
+                mirror = dataclasses.replace(
+                    mirror, panorama_width=panorama.width, panorama_height=panorama.height
+                )
+            self.mirror = mirror
+            # what the mast's cameras render, before the mirror's resampling
+            panorama = mirror.view_spec()
         self.panorama = panorama
         self.v_max = _positive("v_max", v_max)
         self.w_max = _positive("w_max", w_max)
@@ -187,6 +263,13 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         self.render_size = render_size
 
         self.world_spec = world if isinstance(world, WorldSpec) else load_world_spec(world)
+        self.dynamics = resolve_dynamics(
+            self.world_spec.dynamics,
+            dynamics,
+            {"clock": clock, "clouds": clouds, "movers": movers},
+            start_hour,
+        )
+        self.sensor = resolve_sensor(sensor, auto_exposure, sensor_noise)
         built = build_world(self.world_spec, world_seed, rover_mjcf(self.rover, panorama))
         self.mjcf = built.mjcf
         self.layout = built.layout
@@ -214,17 +297,35 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
 
         # Cheap: the camera and the top-down renderer create their GL contexts on first use,
         # so the env can be built in one process and stepped in a forked or spawned worker.
-        self._camera = OmniCamera(self.model, panorama)
+        self._camera: OmniCamera | MirrorCamera = (
+            OmniCamera(self.model, panorama)
+            if self.mirror is None
+            else MirrorCamera(self.model, self.mirror)
+        )
         self._renderer: mujoco.Renderer | None = None
+        self._dynamics = (
+            None
+            if self.dynamics is None
+            else Dynamics(self.dynamics, self.model, self.world_spec.arena.size, world_seed)
+        )
+        # time of day (s since midnight): set on the first reset, then it runs on
+        self._clock: float | None = None
+        self._sun_time: float | None = None  # where the sun is held with the clock off
+        self._sensor = None if self.sensor is None else Sensor(self.sensor)
+        self._noise_rng: np.random.Generator | None = None
 
         self.action_space = spaces.Box(
             low=np.array([-self.v_max, -self.w_max], dtype=np.float32),
             high=np.array([self.v_max, self.w_max], dtype=np.float32),
             dtype=np.float32,
         )
-        self.observation_space = spaces.Box(
-            0, 255, shape=(panorama.height, panorama.width, 3), dtype=np.uint8
-        )
+        if self.mirror is None:
+            shape = (panorama.height, panorama.width, 3)
+        elif camera == "mirror_circular":
+            shape = self.mirror.circular_shape
+        else:
+            shape = self.mirror.panorama_shape
+        self.observation_space = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
 
     @property
     def dt(self) -> float:
@@ -288,7 +389,10 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     def _info(self, pose: tuple[float, float, float] | None = None) -> dict[str, float]:
         """Ground truth at ``pose`` (the current one, read from the state when None)."""
         x, y, yaw = self._pose() if pose is None else pose
-        return {"x": x, "y": y, "yaw": yaw, "t": float(self.data.time)}
+        info = {"x": x, "y": y, "yaw": yaw, "t": float(self.data.time)}
+        if self._clock is not None:
+            info["clock"] = (self._clock % _DAY_SECONDS) / 3600.0
+        return info
 
     def _random_pose(self) -> tuple[float, float, float]:
         xmin, xmax, ymin, ymax = self.arena_bounds
@@ -328,16 +432,65 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     ) -> tuple[NDArray[np.uint8], dict[str, float]]:
         super().reset(seed=seed)
         options = {} if options is None else dict(options)
-        unknown = sorted(set(options) - {"pose"})
+        unknown = sorted(set(options) - {"pose", "time_of_day"})
         if unknown:
-            raise ValueError(f"unknown reset options {unknown}; expected 'pose'")
+            raise ValueError(f"unknown reset options {unknown}; expected 'pose', 'time_of_day'")
         if options.get("pose") is not None:
             pose = self._check_pose(options["pose"])
         else:
             pose = self._random_pose()
+        self._start_clock(options.get("time_of_day"), restart=seed is not None)
+        if self._sensor is not None:
+            self._noise_rng = np.random.default_rng(int(self.np_random.integers(2**63)))
         self._place(*pose)
+        if self._dynamics is not None:
+            self._dynamics.apply(self.data, self._clock, self._sun_time)
+            mujoco.mj_forward(self.model, self.data)
         gl.check_usable()
-        return self._camera.render(self.data), self._info()
+        return self._observe(None), self._info()
+
+    def _start_clock(self, hours: Any, restart: bool) -> None:
+        """Set the clock to ``hours`` (time of day), or to the start hour on the first reset
+        and on a seeded one (a seed fixes everything); otherwise it runs on."""
+        if hours is not None:
+            if self._dynamics is None:
+                raise ValueError(
+                    f'options["time_of_day"]={hours!r} needs dynamics; this env has none '
+                    "(pass dynamics=True)"
+                )
+            if (
+                isinstance(hours, bool)
+                or not isinstance(hours, int | float)
+                or not (0.0 <= hours < 24.0)
+            ):
+                raise ValueError(f'options["time_of_day"] must be hours in [0, 24), got {hours!r}')
+            self._clock = float(hours) * 3600.0
+        elif (self._clock is None or restart) and self.dynamics is not None:
+            self._clock = self.dynamics.start_hour * 3600.0
+        if self.dynamics is not None and not self.dynamics.clock:
+            self._sun_time = self._clock  # the sun stays where it stands now
+
+    def _observe(self, dt: float | None) -> NDArray[np.uint8]:
+        """What the camera delivers now; ``dt`` seconds after the previous frame, or None for
+        an episode's first frame (the sensor's exposure starts settled on it)."""
+        sensor = None
+        if self._sensor is not None:
+            device, rng = self._sensor, self._noise_rng
+            assert rng is not None  # set on reset
+
+            def sensor(image: NDArray[np.uint8]) -> NDArray[np.uint8]:
+                if dt is None:
+                    device.reset(image)
+                return device.process(image, 0.0 if dt is None else dt, rng)
+
+        if isinstance(self._camera, MirrorCamera):
+            if self.camera == "mirror_circular":
+                image = self._camera.render_circular(self.data)
+                return image if sensor is None else sensor(image)
+            # exposure and noise act on the sensor's pixels, before the unwarp
+            return self._camera.render(self.data, sensor=sensor)
+        image = self._camera.render(self.data)
+        return image if sensor is None else sensor(image)
 
     def step(
         self, action: NDArray[np.float32]
@@ -351,9 +504,13 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         w = min(max(a[1], -self.w_max), self.w_max)
         left, right = self.rover.wheel_speeds(v, w)
         self.data.ctrl[self._actuators] = (left, left, right, right)
+        if self._dynamics is not None and self._clock is not None:
+            # the scene at the end of the step (movers are kinematic: no lag through physics)
+            self._clock += self.control_dt * self._dynamics.spec.time_scale
+            self._dynamics.apply(self.data, self._clock, self._sun_time)
         mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
         gl.check_usable()
-        return self._camera.render(self.data), 0.0, False, False, self._info()
+        return self._observe(self.control_dt), 0.0, False, False, self._info()
 
     def render(self) -> NDArray[np.uint8] | None:
         """The top-down view of the arena, ``(render_size, render_size, 3)`` uint8, when

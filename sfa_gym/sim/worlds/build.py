@@ -14,6 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 from sfa_gym.sim.worlds._mjcf import Builder as _Builder
 from sfa_gym.sim.worlds._mjcf import num as _num
 from sfa_gym.sim.worlds._mjcf import vec as _vec
+from sfa_gym.sim.worlds.dynamics import movers_mjcf
 from sfa_gym.sim.worlds.outdoor import build_outdoor, outer_reach
 from sfa_gym.sim.worlds.spec import ColourRange, WorldSpec
 
@@ -414,6 +415,11 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
     landmarks = _landmarks(b)
     if spec.outdoor is not None:
         landmarks += build_outdoor(b)
+    if spec.dynamics is not None and spec.dynamics.n_movers:
+        # the movers draw from their own generator: the world around them stays the same
+        mover_assets, mover_bodies = movers_mjcf(spec.dynamics, arena.size, int(world_seed))
+        b.assets.append(mover_assets)
+        b.body.append(mover_bodies)
     # Geoms are drawn in model order: near occluders first and the ground last lets the
     # depth test discard hidden ground pixels early (about 10 % faster on llvmpipe). The
     # plane's third size is its rendering grid: with directional and ambient light only, one

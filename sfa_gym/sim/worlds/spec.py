@@ -10,7 +10,10 @@ the same spec and seed give the identical MJCF string, another seed gives anothe
 Outdoor worlds (``envs/paper_outdoor.json``) replace the walls by curbs or painted markings
 (``arena.boundary``) and add an ``outdoor`` block: pavement, grass, building facades, trees,
 parked cars, fences, lamp posts and bushes around the area (drawn by
-:mod:`sfa_gym.sim.worlds.outdoor`), lit by a light named ``"sun"`` (``lights.sun``).
+:mod:`sfa_gym.sim.worlds.outdoor`), lit by a light named ``"sun"`` (``lights.sun``). A
+``dynamics`` block declares what changes while the rover drives (the sun over the day,
+clouds, moving people and cars; see
+:mod:`sfa_gym.sim.worlds.dynamics`).
 
 Lighting is chosen for an omnidirectional camera made of several pinhole cameras: the
 headlight (which MuJoCo attaches to whichever camera renders) carries ambient light only,
@@ -20,7 +23,9 @@ that no wall face is black. Materials are matte (no specular highlights) for the
 Shadows are off (``shadowsize=0``, ``castshadow="false"``): they make software rendering
 about 40 times slower.
 
-This module does not import ``mujoco``: it produces text, which the env compiles.
+This module does not import ``mujoco``: it produces text, which the env compiles. It is
+longer than most because every block of a world spec's JSON has its validated dataclass here,
+next to the one converter that reads them all.
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from sfa_gym.sim.worlds.data import envs_dir
+from sfa_gym.sim.worlds.dynamics import DynamicsSpec
 
 TEXTURE_KINDS = ("checker", "gradient", "flat")
 LANDMARK_KINDS = ("tree", "pillar", "box")
@@ -442,6 +448,7 @@ class WorldSpec:
     lights: LightsSpec = LightsSpec()
     sky: SkySpec = SkySpec()
     outdoor: OutdoorSpec | None = None
+    dynamics: DynamicsSpec | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -459,7 +466,7 @@ class WorldSpec:
 
 
 def _convert(value: Any, hint: Any, where: str) -> Any:
-    """Turn parsed JSON into the type ``hint`` (dataclass, tuple, float, int, str)."""
+    """Turn parsed JSON into the type ``hint`` (dataclass, tuple, bool, float, int, str)."""
     origin = typing.get_origin(hint)
     if is_dataclass(hint):
         return _from_dict(hint, value, where)
@@ -477,6 +484,10 @@ def _convert(value: Any, hint: Any, where: str) -> Any:
             _convert(v, a, f"{where}[{i}]")
             for i, (v, a) in enumerate(zip(value, args, strict=True))
         )
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise ValueError(f"{where} must be true or false, got {value!r}")
+        return value
     if hint is float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ValueError(f"{where} must be a number, got {value!r}")
