@@ -49,6 +49,22 @@ def _positive(name: str, value: Any) -> float:
     return float(value)
 
 
+def _from_preset(name: str, value: Any, presets: dict[str, Any], cls: type) -> Any:
+    """``value`` if it is a ``cls``; the preset it names; the first preset for None."""
+    if value is None:
+        return next(iter(presets.values()))()
+    if isinstance(value, str):
+        if value not in presets:
+            raise ValueError(
+                f"unknown {name} preset {value!r}; expected one of {sorted(presets)} or a "
+                f"{cls.__name__}"
+            )
+        return presets[value]()
+    if not isinstance(value, cls):
+        raise TypeError(f"{name} must be a {cls.__name__}, a preset name or None, got {value!r}")
+    return value
+
+
 class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     """A rover drives on the floor of a walled arena and sees it through an omnidirectional camera.
 
@@ -201,19 +217,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         self.world = world
         self.world_seed = world_seed
         panorama_given = panorama is not None
-        if panorama is None:
-            panorama = PanoramaSpec.paper_sim()
-        elif isinstance(panorama, str):
-            if panorama not in _PANORAMA_PRESETS:
-                raise ValueError(
-                    f"unknown panorama preset {panorama!r}; expected one of "
-                    f"{sorted(_PANORAMA_PRESETS)} or a PanoramaSpec"
-                )
-            panorama = _PANORAMA_PRESETS[panorama]()
-        elif not isinstance(panorama, PanoramaSpec):
-            raise TypeError(
-                f"panorama must be a PanoramaSpec, a preset name or None, got {panorama!r}"
-            )
+        panorama = _from_preset("panorama", panorama, _PANORAMA_PRESETS, PanoramaSpec)
         if camera not in CAMERAS:
             raise ValueError(f"camera must be one of {list(CAMERAS)}, got {camera!r}")
         self.camera = camera
@@ -224,19 +228,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
                 )
             self.mirror: MirrorSpec | None = None
         else:
-            if mirror is None:
-                mirror = MirrorSpec.paper_outdoor()
-            elif isinstance(mirror, str):
-                if mirror not in _MIRROR_PRESETS:
-                    raise ValueError(
-                        f"unknown mirror preset {mirror!r}; expected one of "
-                        f"{sorted(_MIRROR_PRESETS)} or a MirrorSpec"
-                    )
-                mirror = _MIRROR_PRESETS[mirror]()
-            elif not isinstance(mirror, MirrorSpec):
-                raise TypeError(
-                    f"mirror must be a MirrorSpec, a preset name or None, got {mirror!r}"
-                )
+            mirror = _from_preset("mirror", mirror, _MIRROR_PRESETS, MirrorSpec)
             if panorama_given:  # an explicit panorama sets the size of the unwarped one
                 mirror = dataclasses.replace(
                     mirror, panorama_width=panorama.width, panorama_height=panorama.height
