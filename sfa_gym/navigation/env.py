@@ -271,14 +271,7 @@ class OmniRoverNavEnv(OmniRoverEnv):
     # -- episode -------------------------------------------------------------------------------
 
     def _check_pose_option(self, name: str, pose: Any) -> tuple[float, float, float]:
-        try:
-            x, y, yaw = (float(v) for v in pose)
-        except (TypeError, ValueError):
-            raise ValueError(
-                f'options["{name}"] must be (x, y, yaw) numbers, got {pose!r}'
-            ) from None
-        if not all(math.isfinite(v) for v in (x, y, yaw)):
-            raise ValueError(f'options["{name}"] must be finite, got {pose!r}')
+        x, y, yaw = self._pose_numbers(name, pose)
         if not self.occupancy.is_free(np.array([[x, y]]))[0]:
             raise ValueError(
                 f'options["{name}"] position ({x}, {y}) is not in free space: outside the '

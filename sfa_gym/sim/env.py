@@ -395,13 +395,21 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         yaw = float(self.np_random.uniform(-math.pi, math.pi))
         return x, y, yaw
 
-    def _check_pose(self, pose: Any) -> tuple[float, float, float]:
+    @staticmethod
+    def _pose_numbers(name: str, pose: Any) -> tuple[float, float, float]:
+        """``options[name]`` as finite ``(x, y, yaw)`` floats, or a ValueError naming it."""
         try:
             x, y, yaw = (float(v) for v in pose)
         except (TypeError, ValueError):
-            raise ValueError(f'options["pose"] must be (x, y, yaw) numbers, got {pose!r}') from None
+            raise ValueError(
+                f'options["{name}"] must be (x, y, yaw) numbers, got {pose!r}'
+            ) from None
         if not all(math.isfinite(v) for v in (x, y, yaw)):
-            raise ValueError(f'options["pose"] must be finite, got {pose!r}')
+            raise ValueError(f'options["{name}"] must be finite, got {pose!r}')
+        return x, y, yaw
+
+    def _check_pose(self, pose: Any) -> tuple[float, float, float]:
+        x, y, yaw = self._pose_numbers("pose", pose)
         xmin, xmax, ymin, ymax = self.arena_bounds
         if not (xmin - 1e-9 <= x <= xmax + 1e-9 and ymin - 1e-9 <= y <= ymax + 1e-9):
             raise ValueError(
