@@ -17,6 +17,7 @@ from sfa_gym.leaderboard.cache import RunCache, RunRequest
 from sfa_gym.leaderboard.plugins import PluginError, load_method
 from sfa_gym.leaderboard.tracks import TrackError, list_tracks, load_track, track_from_dict
 from sfa_gym.recording.drivers import GridPositions
+from sfa_gym.sim.env import OmniRoverEnv
 
 ROOT = Path(__file__).resolve().parents[1]
 BAND_MEANS = ROOT / "baselines" / "band_means.py"
@@ -57,7 +58,7 @@ def _write_track(folder: Path, data: dict) -> Path:
 def test_shipped_tracks_load_and_stay_clear_of_development_seeds():
     tracks = {t.name: t for t in list_tracks(ROOT / "eval" / "tracks")}
     assert {"paper_sim_parity", "train_test", "few_labels", "unvisited_region"} <= set(tracks)
-    assert {"unseen_worlds", "nav_open"} <= set(tracks)
+    assert {"unseen_worlds", "nav_open", "nav_obstacles", "nav_maze"} <= set(tracks)
     assert tracks["few_labels"].params["labels"] == [12, 25, 50]
     unseen = tracks["unseen_worlds"]
     assert not set(unseen.fit_world_seeds) & set(unseen.world_seeds)
@@ -87,6 +88,25 @@ def test_navigation_episode_seeds_must_avoid_the_readme_episodes():
     data["params"]["episode_seed"] = 950  # episodes 950..1049 reach the README's 1000-1099
     with pytest.raises(TrackError, match="params.episode_seed 1000 is a development seed"):
         track_from_dict(data, "nav_open.json")
+
+
+def test_every_world_of_the_shipped_tracks_builds():
+    # e.g. paper_sim_obstacles finds no room for its six obstacles with world seed 100
+    from sfa_gym.sim.worlds import build_world, load_world_spec
+
+    for track in list_tracks(ROOT / "eval" / "tracks"):
+        spec = load_world_spec(track.world)
+        for seed in track.world_seeds + track.fit_world_seeds:
+            build_world(spec, seed)
+
+
+def test_navigation_tracks_drive_the_env_of_their_world():
+    import gymnasium as gym
+
+    for track in list_tracks(ROOT / "eval" / "tracks"):
+        if track.kind == "navigation":
+            kwargs = gym.spec(track.params["env_id"]).kwargs
+            assert kwargs["world"] == track.world, track.name
 
 
 def test_track_name_must_match_its_file(tmp_path):
@@ -260,3 +280,159 @@ def test_cli_run_and_table_write_results_with_provenance(tmp_path, capsys):
 
     assert main(["leaderboard", "run", "--method", str(BAND_MEANS), "--track", "nope", *common])
     assert "'nope' is not a track" in capsys.readouterr().err
+
+
+# -------------------------------------------------------------------------- navigation
+
+NAV_TINY = {
+    "schema_version": 1,
+    "name": "nav_tiny",
+    "track_version": 1,
+    "kind": "navigation",
+    "evaluation": "navigation",
+    "description": "test track",
+    "world": "paper_sim_obstacles",
+    "world_seeds": [101],
+    "seed": 7001,
+    "params": {
+        "env_id": "sfa_gym/OmniRoverNavObstacles-v0",
+        "panorama": [40, 350],
+        "train_grid": 5,
+        "field_spacing": 1.5,
+        "episodes": 2,
+        "episode_seed": 50000,
+        "weight_power": 2.0,
+    },
+    "quick": {"world_seeds": 1},
+}
+
+
+class _MeanColour:
+    """A cheap fitted feature model: the mean colour of a panorama, the same for every
+    rotation (``transform_rotations``: no rotated views are built)."""
+
+    def transform_rotations(self, panoramas, step):
+        means = np.asarray(panoramas, dtype=np.float64).mean(axis=(1, 2))
+        return np.repeat(means[:, None, :], panoramas.shape[2] // step, axis=1)
+
+
+class _TopRowColour(_MeanColour):
+    """Another cheap model: the mean colour of the top row."""
+
+    def transform_rotations(self, panoramas, step):
+        return super().transform_rotations(np.asarray(panoramas)[:, :1], step)
+
+
+@pytest.fixture(scope="module")
+def obstacles_nav():
+    import gymnasium as gym
+
+    env = gym.make("sfa_gym/OmniRoverNavObstacles-v0", world_seed=101).unwrapped
+    yield env
+    env.close()
+
+
+@pytest.fixture(scope="module")
+def obstacles_camera():
+    """The exploration env of the same world (its reset places the rover at a pose)."""
+    env = OmniRoverEnv("paper_sim_obstacles", world_seed=101)
+    yield env
+    env.close()
+
+
+def test_free_grid_positions_skip_exactly_the_cells_reset_refuses(obstacles_camera):
+    from sfa_gym.leaderboard.poses import FreeGridPositions
+
+    every = GridPositions(n=12, seed=7001, order="hilbert").poses(obstacles_camera)
+    free = FreeGridPositions(n=12, seed=7001, order="hilbert").poses(obstacles_camera)
+    kept = [any(np.array_equal(p, q) for q in free) for p in every]
+    assert 0 < len(free) < len(every)  # the obstacles take some cells, not all
+    np.testing.assert_array_equal(every[kept], free)  # same poses, same yaws, same order
+    for pose in every[~np.array(kept)][:3]:
+        with pytest.raises(ValueError, match="from an obstacle"):
+            obstacles_camera.reset(options={"pose": tuple(pose)})
+    # in the open arena the rover fits everywhere: the whole grid, as GridPositions
+    open_arena = OmniRoverEnv()
+    try:
+        np.testing.assert_array_equal(
+            FreeGridPositions(n=6, seed=3).poses(open_arena),
+            GridPositions(n=6, seed=3).poses(open_arena),
+        )
+    finally:
+        open_arena.close()
+
+
+def test_cached_field_is_the_built_field_and_its_panoramas_serve_every_method(
+    obstacles_nav, obstacles_camera, tmp_path
+):
+    from sfa_gym.leaderboard.navigation import cached_feature_field
+    from sfa_gym.navigation.field import FeatureField
+
+    cache = RunCache(tmp_path)
+    built = FeatureField.build(
+        obstacles_camera,
+        _MeanColour(),
+        spacing=1.5,
+        free=obstacles_nav.occupancy.is_free,
+        progress=False,
+    )
+    field = cached_feature_field(
+        obstacles_nav, _MeanColour(), 1.5, cache, panorama=(40, 350), seed=7001
+    )
+    np.testing.assert_array_equal(field.free, built.free)
+    assert not field.free.all()  # nodes inside obstacles, filled from their neighbours
+    np.testing.assert_allclose(field.values, built.values, rtol=0, atol=1e-9)
+    field.check_env(obstacles_nav)  # the metadata names this world and camera
+    other = cached_feature_field(
+        obstacles_nav, _TopRowColour(), 1.5, cache, panorama=(40, 350), seed=7001
+    )
+    assert len(cache.renders()) == 1  # the second method's field reused the panoramas
+    assert not np.allclose(other.values, field.values)  # its own features
+
+
+# a cheap plug-in: the mean colour of the top ``rows`` rows, the same for every rotation
+MEAN_COLOUR_PLUGIN = """
+from dataclasses import dataclass
+import numpy as np
+
+@dataclass(frozen=True)
+class Args:
+    rows: int = 40
+
+class MeanColour:
+    name = "mean_colour"
+    def __init__(self, rows):
+        self.rows = rows
+    def fit(self, views):
+        return self
+    def transform(self, views):
+        return np.asarray(views[:, : self.rows], dtype=np.float64).mean(axis=(1, 2))
+    def transform_rotations(self, panoramas, step):
+        means = self.transform(panoramas)
+        return np.repeat(means[:, None], panoramas.shape[2] // step, axis=1)
+
+def make_method(rows=40):
+    return MeanColour(rows)
+"""
+
+
+def test_navigation_task_in_the_obstacle_world_reuses_the_renders(tmp_path):
+    from sfa_gym._files import strict_json
+    from sfa_gym.leaderboard.evaluate import Task, run_task
+
+    track = _write_track(tmp_path / "tracks", NAV_TINY)
+    plugin = tmp_path / "mean_colour.py"
+    plugin.write_text(MEAN_COLOUR_PLUGIN)
+    cache = tmp_path / "cache"
+    first = run_task(Task(str(track), str(plugin), {}, 101, False, str(cache)))
+    scores = first["scores"]
+    assert 0.0 <= scores["score"] <= 1.0 and scores["episodes"] == 2
+    assert 0 < scores["training_positions"] < 25  # the grid minus the cells in obstacles
+    assert scores["field_nodes"]["free"] < scores["field_nodes"]["nodes"] == 25
+    assert len(RunCache(cache).renders()) == 2  # training grid and field nodes
+    strict_json(first)  # a result file can hold it (no NaN, e.g. without interior episodes)
+    if scores["interior"]["episodes"] == 0:
+        assert scores["interior"]["success"] is None
+    second = run_task(Task(str(track), str(plugin), {"rows": 2}, 101, False, str(cache)))
+    assert len(RunCache(cache).renders()) == 2  # another method: no new render
+    assert second["scores"]["training_positions"] == scores["training_positions"]

@@ -50,7 +50,12 @@ from sfa_gym.localization.methods import FeatureMethod
 from sfa_gym.rotation import Rotation, check_step, spread_indices
 from sfa_gym.sfa.io import save_model
 
-__all__ = ["PAPER_OUTDOOR_RESULTS", "TrajectoryExperiment", "run_trajectory_experiment"]
+__all__ = [
+    "PAPER_OUTDOOR_RESULTS",
+    "TrajectoryExperiment",
+    "run_trajectory_experiment",
+    "trajectory_drivers",
+]
 
 PAPER_OUTDOOR_RESULTS = {
     "mae_m": [0.23, 0.175],
@@ -167,7 +172,13 @@ class TrajectoryExperiment:
         self.sfa.validate()
 
 
-def _drivers(config: TrajectoryExperiment) -> tuple[Any, Any]:
+def trajectory_drivers(config: TrajectoryExperiment) -> tuple[Any, Any]:
+    """The drivers of the training run and of the test run that ``config`` describes.
+
+    Returns:
+        ``(train, test)``: a :class:`~sfa_gym.recording.drivers.LawnMowerDriver` (never entering
+        ``config.exclude``) and the test driver named by ``config.test_driver``.
+    """
     from sfa_gym.recording.drivers import LawnMowerDriver, LoopDriver, RandomWalkDriver
 
     train = LawnMowerDriver(
@@ -202,7 +213,7 @@ def record_runs(config: TrajectoryExperiment, out_dir: Path, progress: bool = Tr
 
         height, width = config.panorama
         env_kwargs["panorama"] = PanoramaSpec(width=int(width), height=int(height))
-    train_driver, test_driver = _drivers(config)
+    train_driver, test_driver = trajectory_drivers(config)
     runs = []
     for name, driver, n_steps in (
         ("train", train_driver, config.train_steps),

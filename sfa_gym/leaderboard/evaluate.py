@@ -141,7 +141,7 @@ def _region_scores(
     track: Track, params: Mapping[str, Any], world_seed: int, method: Any, cache: RunCache
 ) -> dict[str, Any]:
     from sfa_gym.experiments.common import fit_method, view_features
-    from sfa_gym.experiments.trajectory import TrajectoryExperiment, _drivers
+    from sfa_gym.experiments.trajectory import TrajectoryExperiment, trajectory_drivers
     from sfa_gym.geometry import in_rectangle
     from sfa_gym.localization import fit_predict, mae, make_regressor
     from sfa_gym.rotation import Rotation, spread_indices
@@ -164,7 +164,7 @@ def _region_scores(
     config.validate()
     runs = []
     for driver, n_steps in zip(
-        _drivers(config), (config.train_steps, config.test_steps), strict=True
+        trajectory_drivers(config), (config.train_steps, config.test_steps), strict=True
     ):
         request = RunRequest(
             world=track.world,

@@ -175,7 +175,9 @@ def write_table(results_dir: str | os.PathLike[str], out: str | os.PathLike[str]
     folder) from every result under ``results_dir``; returns the markdown text.
 
     Rows are methods, columns tracks (full size and quick size kept apart); a cell is the mean
-    score over the world seeds with its t-interval. The chart has one panel per track.
+    score over the world seeds with its t-interval. The chart has one panel per track (four a
+    row): a bar per method (the mean, with the t-interval) and a dot per world seed; the axis
+    follows the scores, so an interval wider than them is cut at the panel's edge.
     """
     import matplotlib
 
@@ -215,8 +217,11 @@ def write_table(results_dir: str | os.PathLike[str], out: str | os.PathLike[str]
     text = "\n".join(lines) + "\n"
     (out_dir / "LEADERBOARD.md").write_text(text)
 
-    fig, axes = plt.subplots(1, len(tracks), figsize=(3.2 * len(tracks), 3.6), squeeze=False)
-    for ax, t in zip(axes[0], tracks, strict=True):
+    # at most four panels a row, so that a board of many tracks stays readable
+    ncols = min(4, len(tracks))
+    nrows = -(-len(tracks) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.0 * ncols, 3.3 * nrows), squeeze=False)
+    for ax, t in zip(axes.flat, tracks, strict=False):
         names = [m for m in methods if m in columns[t]]
         scores = [columns[t][m]["score"] for m in names]
         means = np.array([s["mean"] for s in scores])
@@ -226,12 +231,22 @@ def write_table(results_dir: str | os.PathLike[str], out: str | os.PathLike[str]
                 for s in scores
             ]
         ).T
-        ax.bar(range(len(names)), means, yerr=err, capsize=3, color="tab:blue")
+        ax.bar(range(len(names)), means, yerr=err, capsize=3, color="tab:blue", alpha=0.8)
+        # each world seed's score: with few seeds the t-interval is wide, the points say why
+        points = [[task["scores"]["score"] for task in columns[t][m]["tasks"]] for m in names]
+        for i, values in enumerate(points):
+            ax.plot([i] * len(values), values, "k.", markersize=4)
+        higher = scores[0]["higher_is_better"]
+        top = max(max(v) for v in points)
+        # the axis follows the scores, not the intervals (which may reach far beyond them)
+        ax.set_ylim(0, 1.05 if higher and top <= 1 else 1.3 * top)
         ax.set_xticks(range(len(names)), names, rotation=45, ha="right", fontsize=8)
-        better = "higher" if scores[0]["higher_is_better"] else "lower"
-        ax.set_title(f"{t}\n({better} is better)", fontsize=9)
-    axes[0][0].set_ylabel("score")
+        ax.set_title(f"{t}\n({'higher' if higher else 'lower'} is better)", fontsize=9)
+        ax.set_ylabel("success rate" if higher else "MAE, % of range", fontsize=8)
+        ax.tick_params(axis="y", labelsize=8)
+    for ax in list(axes.flat)[len(tracks) :]:
+        ax.set_visible(False)
     fig.tight_layout()
-    fig.savefig(out_dir / "leaderboard.png", dpi=110)
+    fig.savefig(out_dir / "leaderboard.png", dpi=90)
     plt.close(fig)
     return text

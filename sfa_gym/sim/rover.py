@@ -20,11 +20,18 @@ default ground (tyre friction 1.0): turning in place for 3 s at ``w`` in [0.1, 1
 0.98-1.08 ``w * t`` (including the spin-up), driving straight at 0.1-0.4 m/s covers
 0.99-1.03 ``v * t``; a turn while driving (v = 0.3 m/s, w = 0.5 rad/s) turns 1.01 ``w * t``.
 Recalibrate when changing the tyres, the masses or the ground.
+
+The mast is rigid by default. With ``RoverSpec.mast_stiffness`` set it is sprung: the mast
+and the camera head hang on two hinge joints at the mast foot (pitch about the body y axis,
+then roll about x) with torsion springs and dampers, so the camera pitches and rolls with the
+rover's accelerations, most at stops, speed reversals and turning points, as the paper's
+camera did on its pole. :meth:`RoverSpec.outdoor` is such a rover.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, fields
 
 from sfa_gym.sim.camera import PanoramaSpec, camera_mjcf
@@ -32,6 +39,16 @@ from sfa_gym.sim.worlds import MJCFParts
 
 WHEELS = ("fl", "rl", "fr", "rr")
 """Wheel names in actuator order: front-left, rear-left, front-right, rear-right."""
+
+
+_MAY_BE_ZERO = frozenset({"mast_stiffness", "mast_damping"})
+_GRAVITY = 9.81  # m/s^2, MuJoCo's default
+_MAST_TUBE_MASS = 0.3  # kg
+_MAST_HEAD_GAP = 0.03  # m between the tube's top and the camera
+MAST_STIFFNESS_OUTDOOR = 60.0
+"""Mast hinge stiffness of :meth:`RoverSpec.outdoor` (N m/rad)."""
+MAST_DAMPING_OUTDOOR = 3.5
+"""Mast hinge damping of :meth:`RoverSpec.outdoor` (N m s/rad)."""
 
 
 def _f(x: float) -> str:
@@ -59,6 +76,13 @@ class RoverSpec:
             The tyres have ``priority`` over the ground, so their friction and contact
             softness (``solref`` 0.04 s, softer than MuJoCo's default, which makes a skidding
             rover chatter) decide the tyre contacts.
+        mast_stiffness: torsion spring of each mast hinge (N m/rad); None or 0 for a rigid
+            mast (the default, and the model of the static worlds). It must exceed the
+            toppling moment of the mast and camera head under gravity
+            (:attr:`mast_gravity_moment`), or the mast would fall over.
+        mast_damping: damper of each mast hinge (N m s/rad); only for a sprung mast.
+        camera_mass: mass of the camera head (camera and mirror) at the mast top (kg). Only
+            the sprung mast carries it; the rigid model lumps it into the chassis mass.
     """
 
     chassis_size: tuple[float, float, float] = (0.50, 0.30, 0.18)
@@ -74,17 +98,79 @@ class RoverSpec:
     drive_gain: float = 20.0
     drive_torque: float = 20.0
     turn_slip: float = 2.3
+    mast_stiffness: float | None = None
+    mast_damping: float = 0.0
+    camera_mass: float = 0.5
 
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
+            if f.name == "mast_stiffness" and value is None:
+                continue
             for v in value if isinstance(value, tuple) else (value,):
-                if not v > 0:
+                if isinstance(v, bool) or not isinstance(v, numbers.Real):
+                    raise TypeError(f"RoverSpec.{f.name} must be a number, got {value!r}")
+                if not math.isfinite(v):
+                    raise ValueError(f"RoverSpec.{f.name} must be finite, got {value!r}")
+                if f.name in _MAY_BE_ZERO:
+                    if v < 0:
+                        raise ValueError(
+                            f"RoverSpec.{f.name} must be zero or positive, got {value!r}"
+                        )
+                elif not v > 0:
                     raise ValueError(f"RoverSpec.{f.name} must be positive, got {value!r}")
-        if self.camera_height <= self.wheel_radius + self.chassis_lift + self.chassis_size[2] / 2:
+        if self.camera_height <= self._chassis_top + self.wheel_radius:
             raise ValueError(
                 f"RoverSpec.camera_height {self.camera_height} must lie above the chassis top"
             )
+        if not self.sprung_mast:
+            if self.mast_damping != 0:
+                raise ValueError(
+                    f"RoverSpec.mast_damping={self.mast_damping!r} needs a sprung mast; set "
+                    f"mast_stiffness (N m/rad) too, got mast_stiffness={self.mast_stiffness!r}"
+                )
+        elif self.mast_stiffness <= self.mast_gravity_moment:  # type: ignore[operator]
+            raise ValueError(
+                f"RoverSpec.mast_stiffness={self.mast_stiffness!r} N m/rad cannot hold the mast "
+                f"up: it must exceed the toppling moment under gravity, "
+                f"{self.mast_gravity_moment:.3g} N m/rad"
+            )
+
+    @classmethod
+    def outdoor(cls) -> RoverSpec:
+        """The default rover with a sprung mast, for the outdoor world.
+
+        Tuned (physics timestep 0.005 s) so that a hard stop from 0.4 m/s tilts the camera
+        by about 2.2 degrees (the rigid mast: 1.2, from the chassis rocking on its tyres) and
+        the swing dies down within about 0.5 s (below 0.15 degrees); a reversal from 0.4 to
+        -0.4 m/s tilts it by about 4.7 degrees. The mast swings at about 2 Hz, damped to about
+        40 % of critical. Turning in place hardly tilts it: the mast stands on the turning
+        axis.
+        """
+        return cls(mast_stiffness=MAST_STIFFNESS_OUTDOOR, mast_damping=MAST_DAMPING_OUTDOOR)
+
+    @property
+    def sprung_mast(self) -> bool:
+        """True if the mast swings on springs (``mast_stiffness`` set and not 0)."""
+        return bool(self.mast_stiffness)
+
+    @property
+    def _chassis_top(self) -> float:
+        """Height of the chassis roof, the mast foot, above the wheel axles (m)."""
+        return self.chassis_lift + self.chassis_size[2] / 2
+
+    @property
+    def mast_length(self) -> float:
+        """Distance from the mast foot (on the chassis roof) to the camera (m)."""
+        return self.camera_height - self.wheel_radius - self._chassis_top
+
+    @property
+    def mast_gravity_moment(self) -> float:
+        """Gravity's toppling moment per radian of mast tilt, ``g * sum(m * h)`` over the
+        mast tube and the camera head at heights ``h`` above the mast foot (N m/rad, for
+        small tilts). A sprung mast stands only if its stiffness exceeds it."""
+        half = (self.mast_length - _MAST_HEAD_GAP) / 2
+        return _GRAVITY * (_MAST_TUBE_MASS * half + self.camera_mass * self.mast_length)
 
     @property
     def footprint_radius(self) -> float:
@@ -107,6 +193,48 @@ class RoverSpec:
         return (v - half) / self.wheel_radius, (v + half) / self.wheel_radius
 
 
+def _mast_geom(name: str, z: float, mast_half: float) -> str:
+    return (
+        f'<geom name="{name}_mast" type="cylinder" pos="0 0 {_f(z)}" '
+        f'size="0.015 {_f(mast_half)}" material="{name}_mast" contype="0" conaffinity="0" '
+        f'mass="{_f(_MAST_TUBE_MASS)}"/>'
+    )
+
+
+def _camera_body(panorama: PanoramaSpec, name: str, z: float, inertial: str = "") -> list[str]:
+    return [
+        f'<body name="{name}_camera" pos="0 0 {_f(z)}">',
+        *((f"  {inertial}",) if inertial else ()),
+        *(f"  {line}" for line in camera_mjcf(panorama).splitlines()),
+        "</body>",
+    ]
+
+
+def _sprung_mast(spec: RoverSpec, panorama: PanoramaSpec, name: str, mast_half: float) -> list[str]:
+    """Lines (indented for the rover body) of the sprung mast: a body at the mast foot on two
+    spring-loaded hinges (pitch, then roll) carrying the tube and the camera head."""
+    joint = (
+        f'stiffness="{_f(spec.mast_stiffness or 0.0)}" damping="{_f(spec.mast_damping)}" '
+        'armature="0.001"'
+    )
+    # The camera head's mass sits at the optical centre, without a geom that could get into
+    # the camera's view; a small inertia keeps the body's inertia matrix well conditioned.
+    inertial = (
+        f'<inertial pos="0 0 0" mass="{_f(spec.camera_mass)}" '
+        f'diaginertia="{_f(spec.camera_mass * 1e-3)} {_f(spec.camera_mass * 1e-3)} '
+        f'{_f(spec.camera_mass * 1e-3)}"/>'
+    )
+    lines = [
+        f'<body name="{name}_mast" pos="0 0 {_f(spec._chassis_top)}">',
+        f'  <joint name="{name}_mast_pitch" type="hinge" axis="0 1 0" {joint}/>',
+        f'  <joint name="{name}_mast_roll" type="hinge" axis="1 0 0" {joint}/>',
+        f"  {_mast_geom(name, mast_half, mast_half)}",
+        *(f"  {line}" for line in _camera_body(panorama, name, spec.mast_length, inertial)),
+        "</body>",
+    ]
+    return [f"  {line}" for line in lines]
+
+
 def rover_mjcf(spec: RoverSpec, panorama: PanoramaSpec, name: str = "rover") -> MJCFParts:
     """MJCF of the rover standing at the origin, to put into a world with
     :func:`sfa_gym.sim.worlds.build_world`.
@@ -117,7 +245,7 @@ def rover_mjcf(spec: RoverSpec, panorama: PanoramaSpec, name: str = "rover") -> 
     """
     length, width, height = spec.chassis_size
     r = spec.wheel_radius
-    mast_top = spec.camera_height - r - 0.03
+    mast_top = spec.camera_height - r - _MAST_HEAD_GAP
     chassis_top = spec.chassis_lift + height / 2
     mast_half = (mast_top - chassis_top) / 2
     materials = (
@@ -127,6 +255,15 @@ def rover_mjcf(spec: RoverSpec, panorama: PanoramaSpec, name: str = "rover") -> 
         f'<material name="{name}_mark" rgba="1 0.85 0.1 1" specular="0" shininess="0"/>\n'
         f'<material name="{name}_mast" rgba="0.3 0.3 0.3 1" specular="0" shininess="0"/>'
     )
+    if spec.sprung_mast:
+        before_wheels: list[str] = []
+        after_wheels = _sprung_mast(spec, panorama, name, mast_half)
+    else:
+        # the rigid mast's tube and camera body, in the order of the static worlds' model
+        before_wheels = [f"  {_mast_geom(name, chassis_top + mast_half, mast_half)}"]
+        after_wheels = [
+            f"  {line}" for line in _camera_body(panorama, name, spec.camera_height - r)
+        ]
     wheels = []
     for w in WHEELS:
         x = spec.wheelbase / 2 if w[0] == "f" else -spec.wheelbase / 2
@@ -153,13 +290,9 @@ def rover_mjcf(spec: RoverSpec, panorama: PanoramaSpec, name: str = "rover") -> 
             f'  <geom type="box" pos="{_f(length / 2 - 0.06)} 0 {_f(chassis_top)}" '
             f'size="0.05 {_f(width / 2 - 0.02)} 0.004" material="{name}_mark" '
             f'contype="0" conaffinity="0" mass="0"/>',
-            f'  <geom name="{name}_mast" type="cylinder" '
-            f'pos="0 0 {_f(chassis_top + mast_half)}" size="0.015 {_f(mast_half)}" '
-            f'material="{name}_mast" contype="0" conaffinity="0" mass="0.3"/>',
+            *before_wheels,
             *wheels,
-            f'  <body name="{name}_camera" pos="0 0 {_f(spec.camera_height - r)}">',
-            *(f"    {line}" for line in camera_mjcf(panorama).splitlines()),
-            "  </body>",
+            *after_wheels,
             "</body>",
         ]
     )

@@ -1,0 +1,210 @@
+"""Benchmark: the leaderboard's quick board per track, and the sweep's speed-up on Ray.
+
+Two measurements in one process:
+
+1. **Quick board, local backend**: ``band_means`` on every track of ``eval/tracks`` at its quick
+   size (``sfa-gym leaderboard run --quick``), one track at a time, from a **cold** render
+   cache (a fresh folder unless ``--cache`` names one): the wall time per track includes
+   rendering its runs; the renders' own seconds (the cache's ``renders.log``) are listed beside.
+2. **Ray speed-up**: the tasks (track, method, world seed) of ``band_means`` and
+   ``fft_magnitude`` on the quick localization tracks, with the render cache **warm** (step 1
+   rendered every run they need: the cache is keyed by pixels, not by method), so it measures
+   evaluation. The same tasks run on a local Ray started with ``num_cpus=1`` (one worker at a
+   time), then, after ``ray.shutdown()``, with ``num_cpus=2``. Wall time of each sweep (worker
+   start-up included, ``ray.init`` not), the speed-up ratio, and whether both gave the same
+   scores as each other and as the local backend in step 1.
+
+The machine's load average is recorded before and after each phase: on a shared machine the
+figures are noisy. Writes ``eval/results/leaderboard_bench.json`` (``--json``).
+
+Usage (from the repository root; ~15-20 min on 2 cores)::
+
+    .venv/bin/python eval/bench_leaderboard.py
+    .venv/bin/python eval/bench_leaderboard.py --skip-board --cache ~/.cache/sfa-gym/runs
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script from a checkout
+    sys.path.insert(0, str(ROOT))
+
+import sfa_gym  # noqa: E402
+from sfa_gym._files import write_json_atomic  # noqa: E402
+from sfa_gym.leaderboard.backends import run_tasks  # noqa: E402
+from sfa_gym.leaderboard.cache import RunCache  # noqa: E402
+from sfa_gym.leaderboard.evaluate import Task  # noqa: E402
+from sfa_gym.leaderboard.results import git_commit  # noqa: E402
+from sfa_gym.leaderboard.sweep import run_sweep  # noqa: E402
+from sfa_gym.leaderboard.tracks import list_tracks  # noqa: E402
+
+BASELINES = ROOT / "baselines"
+
+
+def _load() -> list[float]:
+    return [round(v, 2) for v in os.getloadavg()]
+
+
+def _render_seconds(cache: RunCache, before: int) -> tuple[int, float]:
+    """Renders logged since line ``before`` and their seconds."""
+    lines = cache.renders()[before:]
+    seconds = sum(float(line.rsplit("seconds=", 1)[1]) for line in lines)
+    return len(lines), round(seconds, 2)
+
+
+def quick_board(tracks: list[Any], method: str, results: Path, cache: RunCache) -> list[dict]:
+    """Score ``method`` on each track at the quick size, locally; wall time per track."""
+    rows = []
+    for track in tracks:
+        before, load = len(cache.renders()), _load()
+        started = time.perf_counter()
+        (path,) = run_sweep(
+            [track], [(BASELINES / f"{method}.py", {})], results, quick=True, cache_dir=cache.root
+        )
+        seconds = time.perf_counter() - started
+        renders, render_s = _render_seconds(cache, before)
+        result = json.loads(path.read_text())
+        rows.append(
+            {
+                "track": track.name,
+                "method": method,
+                "seconds": round(seconds, 2),
+                "renders": renders,
+                "render_seconds": render_s,
+                "tasks": len(result["tasks"]),
+                "score": result["score"]["mean"],
+                "scores": {str(t["world_seed"]): t["scores"]["score"] for t in result["tasks"]},
+                "load_before": load,
+                "load_after": _load(),
+            }
+        )
+        print(
+            f"{track.name:18s} {seconds:7.1f} s  ({renders} renders, {render_s:.1f} s)  "
+            f"score {result['score']['mean']:.3f}",
+            flush=True,
+        )
+    return rows
+
+
+def ray_speedup(tasks: list[Task], workers: tuple[int, ...]) -> dict[str, Any]:
+    """Run ``tasks`` on a local Ray with each number of CPUs in ``workers``."""
+    import ray
+
+    out: dict[str, Any] = {"tasks": len(tasks), "runs": []}
+    scores = []
+    for n in workers:
+        ray.init(num_cpus=n, include_dashboard=False, log_to_driver=False)
+        try:
+            load = _load()
+            started = time.perf_counter()
+            outputs = run_tasks(tasks, "ray")
+            seconds = time.perf_counter() - started
+        finally:
+            ray.shutdown()
+        scores.append([o["scores"]["score"] for o in outputs])
+        out["runs"].append(
+            {
+                "num_cpus": n,
+                "seconds": round(seconds, 2),
+                "task_seconds_sum": round(sum(o["seconds"] for o in outputs), 2),
+                "load_before": load,
+                "load_after": _load(),
+            }
+        )
+        print(f"ray, {n} worker(s): {seconds:.1f} s for {len(tasks)} tasks", flush=True)
+    out["same_scores"] = all(s == scores[0] for s in scores)
+    out["scores"] = scores[0]
+    first, last = out["runs"][0]["seconds"], out["runs"][-1]["seconds"]
+    out["speedup"] = round(first / last, 3)
+    print(f"speed-up {workers[0]} -> {workers[-1]} workers: {out['speedup']:.2f}x", flush=True)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--cache", type=Path, default=None, help="render cache (default: fresh)")
+    parser.add_argument("--results", type=Path, default=ROOT / "results" / "leaderboard_bench")
+    parser.add_argument("--json", type=Path, default=ROOT / "eval/results/leaderboard_bench.json")
+    parser.add_argument("--board-method", default="band_means")
+    parser.add_argument("--ray-methods", nargs="+", default=["band_means", "fft_magnitude"])
+    parser.add_argument("--skip-board", action="store_true", help="only the Ray speed-up")
+    parser.add_argument("--tracks", nargs="+", default=None, help="track names (default: all)")
+    args = parser.parse_args(argv)
+
+    cache_root = args.cache or Path(tempfile.mkdtemp(prefix="sfa-gym-bench-cache-"))
+    cache = RunCache(cache_root)
+    tracks = list_tracks(ROOT / "eval" / "tracks")
+    if args.tracks is not None:
+        unknown = sorted(set(args.tracks) - {t.name for t in tracks})
+        if unknown:
+            parser.error(f"--tracks {unknown[0]!r} is not a track")
+        tracks = [t for t in tracks if t.name in args.tracks]
+    report: dict[str, Any] = {
+        "sfa_gym_version": sfa_gym.__version__,
+        "git_commit": git_commit(ROOT),
+        "machine": platform.machine(),
+        "cpus": os.cpu_count(),
+        "python": platform.python_version(),
+        "cache": str(cache_root),
+        "cache_renders_at_start": len(cache.renders()),
+    }
+    started = time.perf_counter()
+    if not args.skip_board:
+        print(f"quick board, {args.board_method}, local backend, cache {cache_root}", flush=True)
+        board = quick_board(tracks, args.board_method, args.results, cache)
+        report["quick_board"] = {
+            "method": args.board_method,
+            "backend": "local",
+            "cache": "cold" if report["cache_renders_at_start"] == 0 else "as found",
+            "tracks": board,
+            "seconds": round(sum(r["seconds"] for r in board), 2),
+        }
+    localization = [t for t in tracks if t.kind == "localization"]
+    tasks = [
+        Task(str(t.path), str(BASELINES / f"{m}.py"), {}, seed, True, str(cache_root))
+        for t in localization
+        for m in args.ray_methods
+        for seed in t.sized(True)[0]
+    ]
+    if args.skip_board:
+        # warm the cache outside the timed sweeps: one method renders every run they need
+        first = Path(tasks[0].method_path).stem
+        run_tasks([t for t in tasks if Path(t.method_path).stem == first])
+    before = len(cache.renders())
+    report["ray"] = {
+        "methods": args.ray_methods,
+        "tracks": [t.name for t in localization],
+        "cache": "warm",
+        **ray_speedup(tasks, (1, 2)),
+    }
+    report["ray"]["renders_during_ray"] = len(cache.renders()) - before
+    if not args.skip_board:
+        local = {
+            (r["track"], int(seed)): score
+            for r in report["quick_board"]["tracks"]
+            for seed, score in r["scores"].items()
+        }
+        report["ray"]["same_scores_as_local"] = all(
+            local[(Path(t.track_path).stem, t.world_seed)] == score
+            for t, score in zip(tasks, report["ray"]["scores"], strict=True)
+            if Path(t.method_path).stem == args.board_method
+        )
+    report["seconds"] = round(time.perf_counter() - started, 2)
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(args.json, report)
+    print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

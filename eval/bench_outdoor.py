@@ -1,0 +1,86 @@
+"""Benchmark: what the outdoor world, its dynamics, the sensor and the mirror camera cost per step.
+
+All envs make 60 x 600 observations and drive the same commands (a slow curve) from the same
+start; each is timed in interleaved batches (so that all see the same load on a shared
+machine) and reported as the median step time and its ratio to the static paper_sim world
+seen by the cylindrical camera (the reference, measured in the same process):
+
+* ``paper_sim``: the reference;
+* ``outdoor static``: the outdoor world with its dynamics off, cylindrical camera;
+* ``outdoor dynamics``: the same with sun, clouds and movers on;
+* ``outdoor dynamics+sensor``: and the camera's auto-exposure and noise;
+* ``OmniRoverOutdoor-v0``: all of it through the mirror camera (the registered id).
+
+Usage (from the repository root)::
+
+    .venv/bin/python eval/bench_outdoor.py [--steps 40] [--repeats 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+from tqdm import tqdm
+
+import sfa_gym  # noqa: F401  (registers the ids)
+from sfa_gym.sim.env import OmniRoverEnv
+
+OUTDOOR = {"world": "paper_outdoor", "panorama": "paper_outdoor"}
+CASES = {
+    "paper_sim": lambda: OmniRoverEnv(world="paper_sim", panorama="paper_outdoor"),
+    "outdoor static": lambda: OmniRoverEnv(**OUTDOOR, dynamics=False),
+    "outdoor dynamics": lambda: OmniRoverEnv(**OUTDOOR, dynamics=True),
+    "outdoor dynamics+sensor": lambda: OmniRoverEnv(**OUTDOOR, dynamics=True, sensor=True),
+    "OmniRoverOutdoor-v0": lambda: gym.make("sfa_gym/OmniRoverOutdoor-v0").unwrapped,
+}
+REFERENCE = "paper_sim"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--steps", type=int, default=40, help="steps per batch")
+    parser.add_argument("--repeats", type=int, default=5, help="interleaved batches per env")
+    parser.add_argument("--out", type=Path, default=Path("eval/results/outdoor.json"))
+    args = parser.parse_args()
+    if args.steps < 1 or args.repeats < 1:
+        parser.error(f"--steps and --repeats must be >= 1, got {args.steps}, {args.repeats}")
+
+    envs = {name: make() for name, make in CASES.items()}
+    action = np.array([0.3, 0.2], np.float32)
+    for env in envs.values():  # GL contexts and remap tables outside the timing
+        env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})
+        env.step(action)
+    times: dict[str, list[float]] = {name: [] for name in envs}
+    for _ in tqdm(range(args.repeats), desc="batches"):
+        for name, env in envs.items():
+            env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})
+            start = time.perf_counter()
+            for _ in range(args.steps):
+                env.step(action)
+            times[name].append((time.perf_counter() - start) / args.steps)
+    for env in envs.values():
+        env.close()
+
+    reference = statistics.median(times[REFERENCE])
+    rows = {
+        name: {"ms_per_step": 1e3 * statistics.median(t), "ratio": statistics.median(t) / reference}
+        for name, t in times.items()
+    }
+    print(f"{'env (60 x 600)':<26} {'ms/step':>8} {'ratio':>6}")
+    for name, row in rows.items():
+        print(f"{name:<26} {row['ms_per_step']:8.1f} {row['ratio']:6.2f}")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(
+        json.dumps({"steps": args.steps, "repeats": args.repeats, "rows": rows}, indent=2) + "\n"
+    )
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
