@@ -1,4 +1,4 @@
-"""Hierarchical SFA, the paper's method, as a leaderboard plug-in .
+"""Hierarchical SFA, the paper's method, as a leaderboard plug-in.
 
 The network of :class:`~sfa_gym.experiments.settings.SFASettings` (a preset of
 ``sfa_gym.sfa.presets``: converging layers of linear SFA, quadratic expansion, SFA) is fitted
