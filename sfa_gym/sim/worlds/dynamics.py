@@ -109,7 +109,8 @@ class DynamicsSpec:
 
     Attributes:
         start_hour: time of day at which the env's clock starts.
-        time_scale: simulated seconds of the clock per second of the rover's time (1: real).
+        time_scale: simulated seconds of the clock per second of the rover's time (1: real);
+            it hurries the whole world, the movers too.
         sunrise_hour, sunset_hour: the sun's day.
         noon_elevation_deg: the sun's elevation at noon.
         sun_diffuse: the sun's diffuse intensity when it stands highest, clear sky.
