@@ -46,7 +46,8 @@ def register_envs() -> None:
       (``paper_sim_maze``): straight lines between quadrants are blocked; 1000 steps.
     * ``sfa_gym/OmniRoverOutdoor-v0``: the ``paper_outdoor`` world through the mirror camera
       (60 x 600 unwarped panoramas), with its dynamics (sun over the day, clouds, movers) and
-      the camera's auto-exposure and noise; each effect can be switched off by a kwarg.
+      the camera's auto-exposure and noise, on the sprung mast of ``RoverSpec.outdoor()`` (the
+      view tilts at turning points); each effect can be switched off by a kwarg.
     """
     specs = {
         "sfa_gym/OmniRover-v0": (_ENTRY_POINT, _MAX_EPISODE_STEPS, {"world": "paper_sim"}),
@@ -72,6 +73,7 @@ def register_envs() -> None:
                 "mirror": "paper_outdoor",
                 "dynamics": True,
                 "sensor": True,
+                "rover": "outdoor",
             },
         ),
     }

@@ -133,3 +133,31 @@ def test_panorama_follows_the_mast_tilt_and_yaw_comes_from_the_chassis():
 def test_bad_mast_values_are_refused(changes, error, match):
     with pytest.raises(error, match=match):
         dataclasses.replace(RoverSpec(), **changes)
+
+
+def test_rover_preset_names_reach_the_env_and_the_registered_outdoor_id():
+    import gymnasium as gym
+
+    import sfa_gym  # noqa: F401  (registers the ids)
+
+    assert OmniRoverEnv(panorama=SMALL, rover="outdoor").rover == RoverSpec.outdoor()
+    assert OmniRoverEnv(panorama=SMALL, rover="default").rover == RoverSpec()
+    assert OmniRoverEnv(panorama=SMALL).rover.mast_stiffness is None
+    env = gym.make("sfa_gym/OmniRoverOutdoor-v0")
+    try:
+        assert env.unwrapped.rover == RoverSpec.outdoor()
+        assert "rover_mast_pitch" in env.unwrapped.mjcf
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize(
+    ("rover", "error", "match"),
+    [
+        ("wobbly", ValueError, r"unknown rover preset 'wobbly'.*\['default', 'outdoor'\]"),
+        (60.0, TypeError, "rover must be a RoverSpec, a preset name or None, got 60.0"),
+    ],
+)
+def test_bad_rover_values_are_refused(rover, error, match):
+    with pytest.raises(error, match=match):
+        OmniRoverEnv(panorama=SMALL, rover=rover)

@@ -369,6 +369,9 @@ def test_real_env_run_resumes_to_the_same_arrays(tmp_path):
     meta = reference.metadata
     assert meta["env_id"] == ENV_ID and meta["world"] == "paper_sim" and meta["world_seed"] == 0
     assert meta["panorama"]["width"] == 350 and meta["shape"] == [40, 350, 3]
+    # what shaped the pixels: the camera, the mirror (none here) and the rover with its mast
+    assert meta["camera"] == "cylindrical" and meta["mirror"] is None
+    assert meta["rover"]["type"] == "RoverSpec" and meta["rover"]["mast_stiffness"] is None
     assert meta["dt"] == 0.1 and len(meta["arena_bounds"]) == 4
     np.testing.assert_allclose(reference.time, np.arange(12) * 0.1, atol=1e-9)
     assert reference.panoramas[11].std() > 10  # a rendered scene, not a blank image

@@ -34,6 +34,7 @@ _PANORAMA_PRESETS = {
     "paper_outdoor": PanoramaSpec.paper_outdoor,
 }
 _MIRROR_PRESETS = {"paper_outdoor": MirrorSpec.paper_outdoor}
+_ROVER_PRESETS = {"default": RoverSpec, "outdoor": RoverSpec.outdoor}
 CAMERAS = ("cylindrical", "mirror", "mirror_circular")
 """What the env's observation is: the cylindrical panorama, the mirror camera's unwarped
 panorama, or the mirror camera's circular image."""
@@ -150,7 +151,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     * ``w_max`` (1.0): largest yaw rate, rad/s.
     * ``control_dt`` (0.1): duration of one step, s; a multiple of the physics timestep
       (0.005 s).
-    * ``rover`` (None): a ``RoverSpec`` (geometry, masses, drive); None for the default.
+    * ``rover`` (None): a ``RoverSpec`` (geometry, masses, drive, camera mast) or a preset
+      name: "default" (None: a rigid mast) or "outdoor" (a sprung mast that pitches and rolls
+      with the rover's accelerations, as the paper's mirror did at turning points).
     * ``render_mode`` (None): None or "rgb_array" (a top-down view of the arena).
     * ``render_size`` (256): side of the square top-down render, pixels.
     * ``camera`` ("cylindrical"): the observation: the cylindrical panorama; "mirror", the
@@ -200,7 +203,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         v_max: float = 0.4,
         w_max: float = 1.0,
         control_dt: float = 0.1,
-        rover: RoverSpec | None = None,
+        rover: RoverSpec | str | None = None,
         render_mode: str | None = None,
         render_size: int = 256,
         camera: str = "cylindrical",
@@ -240,9 +243,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         self.v_max = _positive("v_max", v_max)
         self.w_max = _positive("w_max", w_max)
         self.control_dt = _positive("control_dt", control_dt)
-        self.rover = RoverSpec() if rover is None else rover
-        if not isinstance(self.rover, RoverSpec):
-            raise TypeError(f"rover must be a RoverSpec or None, got {rover!r}")
+        self.rover = _from_preset("rover", rover, _ROVER_PRESETS, RoverSpec)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, "
