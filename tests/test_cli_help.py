@@ -8,7 +8,7 @@ import dataclasses
 import pytest
 
 from sfa_gym.cli import main
-from sfa_gym.cli.localize import Localize, LocalizeRun
+from sfa_gym.cli.localize import Localize, LocalizeOutdoor, LocalizeRun
 from sfa_gym.cli.record import Record
 
 
@@ -19,6 +19,8 @@ def _options(cls: type) -> list[str]:
     for field in dataclasses.fields(cls):
         if dataclasses.is_dataclass(field.default):
             out += _options(type(field.default))
+        elif field.default is True:  # a switch that is on: the option turns it off
+            out.append("--no-" + field.name.replace("_", "-"))
         else:
             out.append("--" + field.name.replace("_", "-"))
     return out
@@ -33,7 +35,13 @@ def _help(command: str, capsys, monkeypatch) -> str:
 
 
 @pytest.mark.parametrize(
-    ("command", "cls"), [("localize", Localize), ("localize-run", LocalizeRun), ("record", Record)]
+    ("command", "cls"),
+    [
+        ("localize", Localize),
+        ("localize-run", LocalizeRun),
+        ("localize-outdoor", LocalizeOutdoor),
+        ("record", Record),
+    ],
 )
 def test_help_lists_every_field_of_the_settings(command, cls, capsys, monkeypatch):
     text = _help(command, capsys, monkeypatch)

@@ -1,6 +1,6 @@
-"""``sfa-gym localize`` and ``sfa-gym localize-run``: the localization protocols, hierarchical
-SFA beside the feature methods of a folder of plug-in files; results as JSON, a table and
-figures.
+"""``sfa-gym localize``, ``localize-run`` and ``localize-outdoor``: the localization protocols,
+hierarchical SFA beside the feature methods of a folder of plug-in files; results as JSON, a
+table and figures.
 
 Every field of the protocols' settings (:class:`~sfa_gym.experiments.GridExperiment`,
 :class:`~sfa_gym.experiments.TrajectoryExperiment`, the nested
@@ -18,9 +18,9 @@ from typing import Any
 
 import tyro
 
-from sfa_gym.experiments import GridExperiment, TrajectoryExperiment
+from sfa_gym.experiments import GridExperiment, OutdoorExperiment, TrajectoryExperiment
 
-__all__ = ["Localize", "LocalizeRun"]
+__all__ = ["Localize", "LocalizeOutdoor", "LocalizeRun"]
 
 
 @dataclass(frozen=True)
@@ -86,5 +86,24 @@ class LocalizeRun(_Protocol):
         settings.validate()
         results = run_trajectory_experiment(
             settings, self.out, self._methods(), progress=not self.quiet
+        )
+        return self._report(results)
+
+
+@dataclass(frozen=True)
+class LocalizeOutdoor(_Protocol):
+    """The paper's outdoor experiment in the outdoor world (sfa_gym/OmniRoverOutdoor-v0): 5900
+    training frames, 2800 test frames right after through a region never visited in training,
+    and the appearance tracks (--conditions after later overcast no_movers other_day)."""
+
+    settings: tyro.conf.OmitArgPrefixes[OutdoorExperiment] = OutdoorExperiment()
+    """settings of the outdoor protocol"""
+
+    def run(self) -> int:
+        from sfa_gym.experiments import run_outdoor_experiment
+
+        self.settings.validate()
+        results = run_outdoor_experiment(
+            self.settings, self.out, self._methods(), progress=not self.quiet
         )
         return self._report(results)

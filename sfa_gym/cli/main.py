@@ -6,6 +6,8 @@
   (:class:`~sfa_gym.cli.localize.Localize`).
 - ``sfa-gym localize-run``: the paper's outdoor protocol on driven runs
   (:class:`~sfa_gym.cli.localize.LocalizeRun`).
+- ``sfa-gym localize-outdoor``: the paper's outdoor experiment in the outdoor world, with its
+  appearance tracks (:class:`~sfa_gym.cli.localize.LocalizeOutdoor`).
 - ``sfa-gym navigate``: image-goal navigation with the slow-feature-gradient controller
   (:class:`~sfa_gym.cli.navigate.Navigate`).
 - ``sfa-gym leaderboard run|table``: score methods on the versioned tracks, build the table
@@ -25,7 +27,7 @@ from typing import Annotated
 import tyro
 
 from sfa_gym.cli.leaderboard import Leaderboard
-from sfa_gym.cli.localize import Localize, LocalizeRun
+from sfa_gym.cli.localize import Localize, LocalizeOutdoor, LocalizeRun
 from sfa_gym.cli.navigate import Navigate
 from sfa_gym.cli.record import Record
 from sfa_gym.localization.methods import PluginError
@@ -36,6 +38,7 @@ Command = (
     Annotated[Record, tyro.conf.subcommand("record")]
     | Annotated[Localize, tyro.conf.subcommand("localize")]
     | Annotated[LocalizeRun, tyro.conf.subcommand("localize-run")]
+    | Annotated[LocalizeOutdoor, tyro.conf.subcommand("localize-outdoor")]
     | Annotated[Navigate, tyro.conf.subcommand("navigate")]
     | Annotated[Leaderboard, tyro.conf.subcommand("leaderboard")]
 )
@@ -49,7 +52,7 @@ DESCRIPTION = (
 
 def parse(
     argv: Sequence[str] | None = None,
-) -> Record | Localize | LocalizeRun | Navigate | Leaderboard:
+) -> Record | Localize | LocalizeRun | LocalizeOutdoor | Navigate | Leaderboard:
     """The command and its settings from ``argv`` (default: ``sys.argv[1:]``); ``--help`` and
     unparsable options exit as argparse does."""
     return tyro.cli(

@@ -3,6 +3,8 @@
 - :mod:`sfa_gym.experiments.grid`: the paper's simulator protocol (a grid of positions).
 - :mod:`sfa_gym.experiments.trajectory`: the paper's outdoor protocol (a training run and a
   test run through a region never visited in training).
+- :mod:`sfa_gym.experiments.outdoor`: the paper's outdoor experiment in the outdoor world
+  (dynamics, mirror camera, vibration) and its appearance tracks.
 - :mod:`sfa_gym.experiments.common`: the evaluation loop both share.
 - :mod:`sfa_gym.experiments.settings`: the SFA network's settings, nested in both protocols'.
 - :mod:`sfa_gym.experiments.report`, :mod:`sfa_gym.experiments.figures`: what they write.
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 from sfa_gym.experiments.common import SlowFeatureMethod, evaluate_methods
 from sfa_gym.experiments.grid import PAPER_SIM_RESULTS, GridExperiment, run_grid_experiment
+from sfa_gym.experiments.outdoor import OutdoorExperiment, run_outdoor_experiment
 from sfa_gym.experiments.report import format_table
 from sfa_gym.experiments.settings import SFASettings
 from sfa_gym.experiments.trajectory import (
@@ -24,11 +27,13 @@ __all__ = [
     "PAPER_OUTDOOR_RESULTS",
     "PAPER_SIM_RESULTS",
     "GridExperiment",
+    "OutdoorExperiment",
     "SFASettings",
     "SlowFeatureMethod",
     "TrajectoryExperiment",
     "evaluate_methods",
     "format_table",
     "run_grid_experiment",
+    "run_outdoor_experiment",
     "run_trajectory_experiment",
 ]

@@ -63,10 +63,13 @@ def format_table(results: dict[str, Any]) -> str:
     Grid protocol: MAE in % of the range over the paper's random splits and fitted on the
     training positions. Trajectory protocol: MAE on the test run in metres and %, its standard
     deviation, and the MAE in % over the test frames in the region never visited in training.
-    The last row is the paper's.
+    Outdoor protocol: per test condition, the MAE in % over the whole test run and inside the
+    region never visited in training. The last row is the paper's.
     """
     if results.get("protocol") == "trajectory":
         return _format_trajectory_table(results)
+    if results.get("protocol") == "outdoor":
+        return _format_outdoor_table(results)
     lines = [
         f"{'method':<20} {'regression':<10} {'splits x %':>10} {'splits y %':>10} "
         f"{'test x %':>9} {'test y %':>9} {'max eta_phi':>11}"
@@ -120,4 +123,38 @@ def _format_trajectory_table(results: dict[str, Any]) -> str:
                 )
     paper = results["paper"]
     lines.append(_trajectory_row("paper (2013)", "linear", paper, None, paper["eta_phi_max"]))
+    return "\n".join(lines)
+
+
+def _format_outdoor_table(results: dict[str, Any]) -> str:
+    conditions = list(results["config"]["conditions"])
+    head = f"{'method':<20} {'regression':<10} {'max eta_phi':>11}"
+    for c in conditions:
+        head += f" | {c + ' x/y %':>15} {'unvisited':>13}"
+    lines = [head]
+
+    def pair(mae: dict[str, Any] | None) -> str:
+        return "-" if mae is None else f"{mae['mae_percent'][0]:.2f}/{mae['mae_percent'][1]:.2f}"
+
+    for name, entry in results["methods"].items():
+        for reg, value in entry.items():
+            if not isinstance(value, dict) or reg == "all_windows":
+                continue
+            row = f"{name:<20} {reg:<10} {max(entry['eta_phi']):>11.3f}"
+            for c in conditions:
+                row += f" | {pair(value[c]['all']):>15} {pair(value[c]['unvisited']):>13}"
+            lines.append(row)
+    every = results["methods"]["hierarchical_sfa"].get("all_windows")
+    if every is not None:
+        after = every["linear"]["after"]
+        lines.append(
+            f"{'hierarchical_sfa':<20} {'linear':<10} {'(120 windows)':>11} | "
+            f"{pair(after['all']):>15} {pair(after['unvisited']):>13}"
+        )
+    paper = results["paper"]
+    mae = {"mae_percent": paper["mae_percent"]}
+    lines.append(
+        f"{'paper (2013)':<20} {'linear':<10} {paper['eta_phi_max']:>11.3f} | {pair(mae):>15} "
+        f"{'-':>13}"
+    )
     return "\n".join(lines)

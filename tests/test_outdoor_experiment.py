@@ -1,0 +1,141 @@
+"""The outdoor protocol: settings and their errors, each appearance condition changes one thing,
+and a short drive through the real outdoor env end to end through the CLI."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from sfa_gym.experiments import OutdoorExperiment, SFASettings
+from sfa_gym.experiments.outdoor import CONDITIONS
+from sfa_gym.geometry import in_rectangle
+from sfa_gym.recording.runfile import load_run
+from sfa_gym.sim.worlds import load_world_spec
+
+
+def test_each_condition_changes_one_thing_against_the_run_right_after_training():
+    config = OutdoorExperiment(start_hour=9.0, later_hours=3.0)
+    drive = config.env_kwargs("after")
+    assert drive["start_hour"] == 9.0 and drive["rover"] == "outdoor" and drive["sensor"]
+    # the test runs start where the "after" part of the drive does: 5900 frames of 0.1 s later
+    hour = 9.0 + 590.0 / 3600.0
+    base = {k: v for k, v in drive.items() if k != "start_hour"}
+    later = config.env_kwargs("later")
+    assert later == {**base, "start_hour": pytest.approx(hour + 3.0)}
+    assert config.env_kwargs("no_movers") == {
+        **base,
+        "start_hour": pytest.approx(hour),
+        "movers": False,
+    }
+    declared = load_world_spec("paper_outdoor").dynamics
+    for condition, change in (("overcast", {"overcast": 1.0}), ("other_day", {"day": 1})):
+        kwargs = config.env_kwargs(condition)
+        assert kwargs.pop("dynamics") == dataclasses.replace(declared, **change)
+        assert kwargs == {**base, "start_hour": pytest.approx(hour)}
+    assert set(CONDITIONS) == {"after", "later", "overcast", "no_movers", "other_day"}
+
+
+def test_ablation_switches_reach_the_env_kwargs():
+    config = OutdoorExperiment(dynamics=False, sensor=False, vibration=False, camera="cylindrical")
+    kwargs = config.env_kwargs("after")
+    assert kwargs["dynamics"] is False and kwargs["sensor"] is False
+    assert kwargs["rover"] == "default" and kwargs["camera"] == "cylindrical"
+    assert "start_hour" not in kwargs
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"conditions": ("after", "sunset")}, "conditions must be one of"),
+        ({"conditions": ()}, "conditions must be a non-empty tuple"),
+        ({"dynamics": False, "conditions": ("after", "overcast")}, r"\['overcast'\].*dynamics"),
+        ({"start_hour": 24.0}, r"start_hour must lie in \[0, 24\)"),
+        ({"later_hours": float("nan")}, "later_hours must be a finite number"),
+        ({"train_frames": 5}, "train_frames must be >= 10"),
+        ({"frame_dt": 0.0}, "frame_dt must be a positive number"),
+        ({"spacing": -1.0}, "spacing must be a positive number"),
+        ({"panorama": (60, 601)}, "601"),
+        ({"camera": "fisheye"}, "camera must be one of"),
+        ({"sensor": 1}, "sensor must be True or False"),
+    ],
+)
+def test_bad_settings_are_named(changes, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        dataclasses.replace(OutdoorExperiment(), **changes).validate()
+
+
+def test_short_outdoor_drive_end_to_end(tmp_path, capsys):
+    """250 training and 250 test frames every 0.8 s (short versions of the paper's paths,
+    driven at its speed, sampled 8 times less often), 16 x 160 panoramas, a tiny network, band
+    means beside SFA."""
+    from sfa_gym.cli.main import main
+
+    out = tmp_path / "outdoor"
+    baselines = tmp_path / "plugins"
+    baselines.mkdir()
+    from sfa_gym.cli.plugins import default_plugin_folder
+
+    folder, _ = default_plugin_folder()
+    (baselines / "band_means.py").write_text((folder / "band_means.py").read_text())
+    args = [
+        "localize-outdoor",
+        "--out",
+        str(out),
+        "--baselines",
+        str(baselines),
+        "--quiet",
+        "--train-frames",
+        "250",
+        "--test-frames",
+        "250",
+        "--frame-dt",
+        "0.8",
+        "--spacing",
+        "2",
+        "--test-spacing",
+        "2",
+        "--panorama",
+        "16",
+        "160",
+        "--network",
+        "tiny",
+        "--node-dim",
+        "8",
+        "--conditions",
+        "after",
+        "no_movers",
+    ]
+    assert main(args) == 0
+    table = capsys.readouterr().out
+    assert "after x/y %" in table and "no_movers x/y %" in table and "paper (2013)" in table
+    results = json.loads((out / "results.json").read_text())
+    assert results["protocol"] == "outdoor" and results["n_rotations"] == 32
+    for name in ("trajectories.png", "estimates.png", "error_map.png", "firing_maps.png"):
+        assert (out / name).stat().st_size > 10_000
+
+    drive = load_run(out / "drive.run")
+    assert len(drive) == 500 and drive.metadata["env_id"] == "sfa_gym/OmniRoverOutdoor-v0"
+    assert drive.metadata["rover"]["mast_stiffness"] > 0 and drive.metadata["camera"] == "mirror"
+    region = results["unvisited_region"]
+    xy = drive.positions
+    # the training part never enters the region, the test part does
+    assert not in_rectangle(xy[:250], region).any() and in_rectangle(xy[250:], region).any()
+    # the no_movers test run drives the same path as the "after" part
+    alone = load_run(out / "test_no_movers.run")
+    assert np.abs(alone.positions - xy[250:]).max() < 0.05
+
+    sfa = results["methods"]["hierarchical_sfa"]
+    assert max(sfa["eta_phi"]) < 0.1
+    mean_guess = np.abs(xy[250:] - xy[:250].mean(axis=0)).mean(axis=0)
+    for condition in ("after", "no_movers"):
+        error = sfa["quadratic"][condition]["all"]["mae_m"]
+        # the slow features know where the rover is: far better than guessing the mean
+        assert np.all(np.array(error) < 0.6 * mean_guess), (condition, error, mean_guess)
+    assert "band_means" in results["methods"]
+
+
+def test_sfa_settings_default_to_the_outdoor_network():
+    assert OutdoorExperiment().sfa == SFASettings(network="paper_outdoor")
