@@ -60,6 +60,9 @@ def test_ablation_switches_reach_the_env_kwargs():
         ({"panorama": (60, 601)}, "601"),
         ({"camera": "fisheye"}, "camera must be one of"),
         ({"sensor": 1}, "sensor must be True or False"),
+        ({"normalise": "equalise"}, "normalise must be one of"),
+        ({"train_also": (0.0,)}, "train_also must be a tuple of non-zero hours"),
+        ({"train_also": (2.0,), "dynamics": False}, "train_also .* needs dynamics=True"),
     ],
 )
 def test_bad_settings_are_named(changes, match):
@@ -135,6 +138,15 @@ def test_short_outdoor_drive_end_to_end(tmp_path, capsys):
         # the slow features know where the rover is: far better than guessing the mean
         assert np.all(np.array(error) < 0.6 * mean_guess), (condition, error, mean_guess)
     assert "band_means" in results["methods"]
+
+
+def test_training_runs_interleave_frame_by_frame():
+    from sfa_gym.experiments.outdoor import interleave
+
+    a = np.arange(6).reshape(3, 2)
+    got = interleave([a, a + 100, a + 200])
+    np.testing.assert_array_equal(got[:4], [[0, 1], [100, 101], [200, 201], [2, 3]])
+    assert got.shape == (9, 2)
 
 
 def test_sfa_settings_default_to_the_outdoor_network():

@@ -56,6 +56,7 @@ from sfa_gym.experiments.settings import SFASettings, check_choice
 from sfa_gym.experiments.trajectory import PAPER_OUTDOOR_RESULTS
 from sfa_gym.geometry import in_rectangle
 from sfa_gym.localization import fit_predict, mae, make_regressor, predict_locations
+from sfa_gym.localization.appearance import Normalisation, normalise_panoramas
 from sfa_gym.localization.methods import FeatureMethod
 from sfa_gym.rotation import Rotation, check_step, spread_indices
 
@@ -107,6 +108,13 @@ class OutdoorExperiment:
     eval_rotations: int | None = 24
     """evenly spread rotation windows per frame whose features every regression is fitted on
     and averages over; None: all (120 at 600 px: slow for the plug-ins)"""
+    normalise: Normalisation = "none"
+    """input normalisation of every panorama, for every method (sfa_gym.localization.appearance:
+    none, grey_world, log_gradient)"""
+    train_also: tuple[float, ...] = ()
+    """levers: the training path driven again, starting this many hours after start_hour, each
+    such run interleaved frame by frame with the training run (the appearance of a place then
+    changes faster than the place); every method trains on all of them"""
     fit_every: int = 5
     """plug-ins without a rotation shortcut are fitted on every n-th training frame"""
     sfa: SFASettings = SFASettings(network="paper_outdoor")
@@ -153,6 +161,15 @@ class OutdoorExperiment:
             if not isinstance(getattr(self, name), bool):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
         check_choice("camera", self.camera, Camera)
+        check_choice("normalise", self.normalise, Normalisation)
+        if not isinstance(self.train_also, tuple | list) or not all(
+            is_number(h) and math.isfinite(h) and h != 0 for h in self.train_also
+        ):
+            raise ValueError(
+                f"train_also must be a tuple of non-zero hours, got {self.train_also!r}"
+            )
+        if self.train_also and not self.dynamics:
+            raise ValueError("train_also drives at other times of day: it needs dynamics=True")
         if self.panorama is not None:
             if not isinstance(self.panorama, tuple | list) or len(self.panorama) != 2:
                 raise ValueError(
@@ -163,8 +180,8 @@ class OutdoorExperiment:
         check_step(600 if self.panorama is None else self.panorama[1], self.step)
         self.sfa.validate()
 
-    def driver(self, part: Literal["test", "both"]) -> Any:
-        """The driver of the whole drive (``"both"``) or of the test path alone."""
+    def driver(self, part: Literal["train", "test", "both"]) -> Any:
+        """The driver of the whole drive (``"both"``) or of one of its paths."""
         from sfa_gym.recording.outdoor_path import OutdoorPathDriver
 
         return OutdoorPathDriver(
@@ -247,6 +264,41 @@ def _record(config: OutdoorExperiment, out: Path, progress: bool) -> tuple[Any, 
     return drive, tests
 
 
+def _training_set(
+    config: OutdoorExperiment, drive: Any, out: Path, progress: bool
+) -> tuple[NDArray[np.uint8], NDArray[np.float64]]:
+    """Training panoramas and positions: the drive's first part, interleaved frame by frame
+    with the training path driven again at the hours of ``config.train_also``."""
+    from sfa_gym.recording.recorder import record
+
+    n = config.train_frames
+    panoramas = [np.asarray(drive.panoramas[:n])]
+    positions = [np.asarray(drive.positions[:n], dtype=np.float64)]
+    for hours in config.train_also:
+        kwargs = config.env_kwargs("after")
+        kwargs["start_hour"] = (config.start_hour + hours) % 24.0
+        run = record(
+            ENV_ID,
+            config.driver("train"),
+            out / f"train_{hours:+g}h.run",
+            seed=config.seed,
+            env_kwargs=kwargs,
+            progress=progress,
+        )
+        panoramas.append(np.asarray(run.panoramas[:]))
+        positions.append(np.asarray(run.positions, dtype=np.float64))
+    if len(panoramas) == 1:
+        return panoramas[0], positions[0]
+    return interleave(panoramas), interleave(positions)
+
+
+def interleave(arrays: Sequence[NDArray[Any]]) -> NDArray[Any]:
+    """Frame 0 of every array, then frame 1 of every array, ...: ``R`` arrays ``(n, ...)`` ->
+    ``(n * R, ...)``."""
+    stacked = np.stack(arrays, axis=1)
+    return stacked.reshape(-1, *stacked.shape[2:])
+
+
 def _test_sets(
     config: OutdoorExperiment, drive: Any, runs: dict[str, Any], region: Sequence[float]
 ) -> dict[str, _TestSet]:
@@ -263,7 +315,8 @@ def _test_sets(
         else:
             panoramas, poses, time = run.panoramas[:], run.poses, run.time
         xy = np.asarray(poses[:, :2], dtype=np.float64)
-        sets[condition] = _TestSet(np.asarray(panoramas), xy, time, in_rectangle(xy, region))
+        panoramas = normalise_panoramas(np.asarray(panoramas), config.normalise)
+        sets[condition] = _TestSet(panoramas, xy, time, in_rectangle(xy, region))
     return sets
 
 
@@ -313,14 +366,14 @@ def run_outdoor_experiment(
     region = south_west(drive.metadata["arena_bounds"])
     tests = _test_sets(config, drive, runs, region)
     n = config.train_frames
-    train_pan = np.asarray(drive.panoramas[:n])
-    train_xy = np.asarray(drive.positions[:n], dtype=np.float64)
+    train_pan, train_xy = _training_set(config, drive, out, progress)
+    train_pan = normalise_panoramas(train_pan, config.normalise)
     after = tests["after"]
     test_range = after.xy.max(axis=0) - after.xy.min(axis=0)
     rotation = config.rotation
     width = train_pan.shape[2]
     windows = spread_indices(rotation.n_views(width), config.eval_rotations)
-    fit_frames = np.arange(0, n, config.fit_every)
+    fit_frames = np.arange(0, len(train_pan), config.fit_every)
 
     found: dict[str, Any] = {}
     sfa_estimates: dict[str, NDArray[np.float64]] = {}
@@ -374,7 +427,7 @@ def run_outdoor_experiment(
     if figures:
         from sfa_gym.experiments.figures import trajectory_figures
 
-        every = max(1, n // 1500)  # firing maps: 1500 training frames are plenty
+        every = max(1, len(train_pan) // 1500)  # firing maps: 1500 frames are plenty
         trajectory_figures(
             out,
             exclude=region,
