@@ -186,6 +186,23 @@ def test_model_has_curbs_no_walls_a_sun_and_modest_geometry(spec, model):
     assert lights == {"sun", "sky0", "sky1", "sky2"}
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_a_road_passes_on_one_side_flat_and_visual_only_with_nothing_on_it(spec, seed):
+    world = build_world(spec, seed)
+    model = mujoco.MjModel.from_xml_string(world.mjcf)
+    road = model.geom("road")
+    assert road.contype[0] == 0 and road.pos[2] + road.size[2] < 0.01
+    x0, x1, y0, y1 = world.lanes.road_rect()
+    np.testing.assert_allclose(road.pos[:2], ((x0 + x1) / 2, (y0 + y1) / 2), atol=1e-3)
+    # beyond the pavement, on the side the lanes name, and as long as they say
+    hx, hy = spec.arena.size[0] / 2, spec.arena.size[1] / 2
+    near = {"north": y0 - hy, "south": -hy - y1, "east": x0 - hx, "west": -hx - x1}
+    assert near[world.lanes.road_side] > spec.outdoor.pavement_width
+    assert max(x1 - x0, y1 - y0) == pytest.approx(world.lanes.length, abs=1e-3)
+    for kind, x, y, _ in world.layout.landmarks:
+        assert not (x0 <= x <= x1 and y0 <= y <= y1), (kind, x, y)
+
+
 def test_markings_are_painted_lines_that_do_not_collide(spec_dict):
     model = mujoco.MjModel.from_xml_string(build_world(_with(spec_dict, boundary="markings")).mjcf)
     names = _geom_names(model)

@@ -299,7 +299,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         self._dynamics = (
             None
             if self.dynamics is None
-            else Dynamics(self.dynamics, self.model, self.world_spec.arena.size, world_seed)
+            else Dynamics(
+                self.dynamics, self.model, self.world_spec.arena.size, world_seed, built.lanes
+            )
         )
         # time of day (s since midnight): set on the first reset, then it runs on
         self._clock: float | None = None

@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 from sfa_gym.sim.worlds._mjcf import Builder as _Builder
 from sfa_gym.sim.worlds._mjcf import num as _num
 from sfa_gym.sim.worlds._mjcf import vec as _vec
-from sfa_gym.sim.worlds.dynamics import movers_mjcf
+from sfa_gym.sim.worlds.dynamics import Lanes, mover_lanes, movers_mjcf
 from sfa_gym.sim.worlds.outdoor import build_outdoor, outer_reach
 from sfa_gym.sim.worlds.spec import ColourRange, WorldSpec
 
@@ -97,10 +97,13 @@ class WorldLayout:
 
 @dataclass(frozen=True)
 class World:
-    """A generated world: the full MJCF text and its layout."""
+    """A generated world: the full MJCF text and its layout; with dynamics, the lanes its
+    movers keep to (:func:`~sfa_gym.sim.worlds.dynamics.mover_lanes`: the scene keeps them
+    free; pass them on to :class:`~sfa_gym.sim.worlds.dynamics.Dynamics`)."""
 
     mjcf: str
     layout: WorldLayout
+    lanes: Lanes | None = None
 
 
 def _wall_panels(b: _Builder) -> None:
@@ -413,11 +416,16 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
     )
     obstacles = _obstacles(b)
     landmarks = _landmarks(b)
+    # the movers' lanes come from the world seed alone (not from b.rng): one function for the
+    # scene, which keeps them free, and the movers, which keep to them
+    lanes = (
+        None if spec.dynamics is None else mover_lanes(spec.dynamics, arena.size, int(world_seed))
+    )
     if spec.outdoor is not None:
-        landmarks += build_outdoor(b)
-    if spec.dynamics is not None and spec.dynamics.n_movers:
+        landmarks += build_outdoor(b, lanes)
+    if spec.dynamics is not None and lanes is not None and spec.dynamics.n_movers:
         # the movers draw from their own generator: the world around them stays the same
-        mover_assets, mover_bodies = movers_mjcf(spec.dynamics, arena.size, int(world_seed))
+        mover_assets, mover_bodies = movers_mjcf(spec.dynamics, lanes, int(world_seed))
         b.assets.append(mover_assets)
         b.body.append(mover_bodies)
     # Geoms are drawn in model order: near occluders first and the ground last lets the
@@ -480,4 +488,4 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
         landmarks=tuple(landmarks),
         walls=_walls(spec),
     )
-    return World(mjcf=mjcf, layout=layout)
+    return World(mjcf=mjcf, layout=layout, lanes=lanes)

@@ -6,12 +6,17 @@ random generator and appends the geoms to a world under construction (see
 block). The arena (the asphalt, ``arena.size``) is centred on the origin; its sides are named
 by their outward direction: north +y, east +x, south -y, west -x.
 
-Around the asphalt lies a pavement ring, then grass (the world's ground plane). Building rows
-stand along some sides, a row of parked cars along one side, fence runs and bushes beyond the
-pavement, lamp posts on it and trees in clusters wherever there is room. Everything is axis
-aligned and placed so that footprints do not overlap (rectangles kept ``_GAP`` apart); all of it
-is visual only (``contype="0"``): the rover cannot reach it past the curbs, and visual-only
-geoms cost nothing in collision detection.
+Around the asphalt lies a pavement ring, then grass (the world's ground plane). With dynamics,
+a straight road (a cycle path and car lanes, :class:`~sfa_gym.sim.worlds.dynamics.Lanes`)
+passes the area on one side beyond a verge; its band is taken before anything else is placed,
+so no parked car, fence, tree, bush or building stands on it, and the building row on that
+side stands beyond it. Building rows stand along some sides, a row of parked cars along one
+side without the road, fence runs and bushes beyond the pavement, lamp posts on the
+pavement's outer part (the pedestrians walk between them and the curb) and trees in clusters
+wherever there is room; trees whose crowns reach over the pavement or the road carry them above
+the movers' heads. Everything is axis aligned and placed so that footprints do not overlap
+(rectangles kept ``_GAP`` apart); all of it is visual only (``contype="0"``): the rover cannot
+reach it past the curbs, and visual-only geoms cost nothing in collision detection.
 
 Window grids are MuJoCo builtin textures (``builtin="flat"`` with ``mark="edge"``: glass
 coloured tiles framed by facade-coloured edges) repeated once per window pitch and storey.
@@ -25,6 +30,7 @@ from dataclasses import dataclass
 
 from sfa_gym.sim.worlds._mjcf import Builder as _Builder
 from sfa_gym.sim.worlds._mjcf import vec as _vec
+from sfa_gym.sim.worlds.dynamics import FOOTPRINT, Lanes
 from sfa_gym.sim.worlds.spec import ColourRange, ItemsSpec, OutdoorSpec
 
 Rect = tuple[float, float, float, float]
@@ -40,6 +46,12 @@ _GLASS = (0.14, 0.17, 0.22)
 _RUBBER = (0.06, 0.06, 0.06)
 _LAMP = (0.95, 0.93, 0.8)
 _BARK = ColourRange((0.05, 0.1), (0.4, 0.7), (0.2, 0.35))
+_LAMP_INSET = 0.3  # lamp posts stand this far inside the pavement's outer edge (m)
+_LAMP_RADIUS = 0.05
+_CROWN_CLEAR = 2.2  # lowest point of a tree crown over the movers' lanes (m)
+_ROAD = (0.16, 0.16, 0.17)  # asphalt of the road
+_CYCLE_PATH = (0.45, 0.22, 0.2)  # red-brown cycle path
+_PAINT = (0.92, 0.92, 0.88)  # lane markings
 
 
 @dataclass(frozen=True)
@@ -110,6 +122,8 @@ class _Scene:
         self.geoms: list[str] = []
         self.landmarks: list[Landmark] = []
         self.materials: dict[tuple[float, float, float], str] = {}
+        # where the movers go (the pavement and the road): tree crowns above them are lifted
+        self.lanes: list[Rect] = []
 
     def free(self, rect: Rect) -> bool:
         return not any(_overlaps(rect, t) for t in self.taken)
@@ -169,7 +183,7 @@ def _window_material(
     return name
 
 
-def _buildings(s: _Scene, car_side: _Side, car_band: float) -> None:
+def _buildings(s: _Scene, car_side: _Side, car_band: float, lanes: Lanes | None) -> None:
     spec, rng = s.spec.buildings, s.rng
     n = int(rng.integers(spec.sides[0], spec.sides[1] + 1))
     order = rng.permutation(len(s.sides))
@@ -183,6 +197,8 @@ def _buildings(s: _Scene, car_side: _Side, car_band: float) -> None:
             distance = rng.uniform(*spec.distance)
             if side is car_side:
                 distance = max(distance, car_band)
+            if lanes is not None and side.name == lanes.road_side:
+                distance = max(distance, lanes.road[1] + _GAP)  # across the road
             storeys = int(rng.integers(spec.storeys[0], spec.storeys[1] + 1))
             out = side.edge + distance + depth / 2
             rect = side.rect(out, along + length / 2, depth, length)
@@ -281,7 +297,7 @@ def _lamp_posts(s: _Scene) -> None:
     if spec.count == 0:
         return
     # evenly round the pavement's outer part, starting at a random point of its perimeter
-    inset = s.spec.pavement_width - 0.3
+    inset = s.spec.pavement_width - _LAMP_INSET
     hx, hy = s.hx + inset, s.hy + inset
     perimeter = 4 * (hx + hy)
     start = rng.uniform(0.0, perimeter)
@@ -300,7 +316,8 @@ def _lamp_posts(s: _Scene) -> None:
         name = s.name("lamp_post")
         s.geoms.append(
             f'<geom name="{name}" type="cylinder" pos="{_vec(x, y, height / 2)}" '
-            f'size="{_vec(0.05, height / 2)}" material="{pole}" contype="0" conaffinity="0"/>'
+            f'size="{_vec(_LAMP_RADIUS, height / 2)}" material="{pole}" contype="0" '
+            f'conaffinity="0"/>'
         )
         s.geoms.append(
             f'<geom name="{name}_head" type="ellipsoid" pos="{_vec(x, y, height + 0.08)}" '
@@ -341,6 +358,11 @@ def _round_items(s: _Scene, kind: str, spec: ItemsSpec, centres: list[tuple[floa
             )
         else:
             trunk_h = height * rng.uniform(0.3, 0.45)
+            crown_rect = (x - r, x + r, y - r, y + r)
+            if any(_overlaps(crown_rect, lane, 0.0) for lane in s.lanes):
+                # a street tree: its crown (which starts a tenth of its height below the
+                # trunk's top) clears the heads of the people, bikes and cars beneath
+                trunk_h = max(trunk_h, (_CROWN_CLEAR + 0.1 * height) / 1.1)
             bark = s.material(_BARK.draw(rng))
             s.geoms.append(
                 f'<geom name="{name}" type="cylinder" pos="{_vec(x, y, trunk_h / 2)}" '
@@ -369,6 +391,60 @@ def _ring_points(s: _Scene, n: int, near: float, far: float) -> list[tuple[float
     return out
 
 
+def _check_lanes(s: _Scene, lanes: Lanes) -> None:
+    """A ValueError when the movers' lanes would run into the scene: the pedestrians' loops
+    must fit between the arena's boundary and the lamp posts, the road must lie beyond the
+    pavement."""
+    arena = s.b.spec.arena
+    boundary = {"curbs": arena.border_width, "walls": arena.wall_thickness}.get(arena.boundary, 0.0)
+    lamps = s.spec.pavement_width - _LAMP_INSET - _LAMP_RADIUS
+    radius = FOOTPRINT["pedestrian"][0]
+    if lanes.walk is not None and not (
+        boundary < lanes.walk[0] - radius and lanes.walk[1] + radius < lamps
+    ):
+        raise ValueError(
+            f"pedestrian offsets {list(lanes.walk)} m put them on the {arena.boundary} or the "
+            f"lamp posts: a pedestrian ({radius} m round) walks between {boundary} m (the "
+            f"{arena.boundary}) and {lamps:.3f} m (the lamp posts) from the arena's edge, so "
+            f"its offset must lie in ({boundary + radius:.3f}, {lamps - radius:.3f})"
+        )
+    if lanes.road[0] < s.spec.pavement_width + _GAP:
+        raise ValueError(
+            f"dynamics road distance {lanes.road[0]} m puts the road on the pavement: it must "
+            f"be >= pavement_width + {_GAP} = {s.spec.pavement_width + _GAP} m"
+        )
+
+
+def _road(s: _Scene, lanes: Lanes) -> None:
+    """The road's band, taken before anything else is placed, and its surface: asphalt, the
+    cycle path on its near side, a line between them and a centre line between the car
+    lanes (flat, just above the grass)."""
+    rect = lanes.road_rect()
+    s.taken.append(rect)
+    near = lanes.road[0]
+    # the cycle path's two lanes lie a quarter and three quarters across it
+    cycle_edge = lanes.cycle[1][0] + (lanes.cycle[1][0] - lanes.cycle[0][0]) / 2
+    half_length = lanes.length / 2
+
+    def band(a: float, b: float) -> Rect:
+        (x0, y0), (x1, y1) = lanes.road_point(a, -half_length), lanes.road_point(b, half_length)
+        return min(x0, x1), max(x0, x1), min(y0, y1), max(y0, y1)
+
+    # the cycle path sits on the asphalt and the paint on both, a millimetre apart: no depth
+    # fighting
+    s.geoms.append(_box_geom("road", rect, -0.009, 0.0005, s.material(_ROAD)))
+    s.geoms.append(
+        _box_geom("cycle_path", band(near, cycle_edge), -0.009, 0.0015, s.material(_CYCLE_PATH))
+    )
+    lines = [cycle_edge] + [
+        (a + b) / 2 for (a, _), (b, _) in zip(lanes.cars, lanes.cars[1:], strict=False)
+    ]
+    for k, d in enumerate(lines):
+        s.geoms.append(
+            _box_geom(f"road_line{k}", band(d - 0.06, d + 0.06), -0.009, 0.0025, s.material(_PAINT))
+        )
+
+
 def outer_reach(spec: OutdoorSpec, size: tuple[float, float]) -> float:
     """Largest distance (m) from the centre at which the surroundings may stand: for the
     model's extent (near and far clipping planes) and the size of the ground plane."""
@@ -377,11 +453,17 @@ def outer_reach(spec: OutdoorSpec, size: tuple[float, float]) -> float:
     return math.hypot(half + b.depth[1], half + b.length[1])
 
 
-def build_outdoor(b: _Builder) -> list[Landmark]:
-    """Draw the surroundings of ``b.spec.outdoor`` with ``b.rng`` into ``b``'s assets and body.
+def build_outdoor(b: _Builder, lanes: Lanes | None = None) -> list[Landmark]:
+    """Draw the surroundings of ``b.spec.outdoor`` with ``b.rng`` into ``b``'s assets and body,
+    keeping the movers' ``lanes`` (from :func:`~sfa_gym.sim.worlds.dynamics.mover_lanes`,
+    None: no movers) free.
 
     The order of the draws is fixed (pavement, car side, buildings, cars, fences, lamp posts,
     tree clusters, bushes), so the same world seed gives the same surroundings.
+
+    Raises:
+        ValueError: the world has no outdoor block, or the lanes run into the scene (see
+            :func:`_check_lanes`).
 
     Returns:
         The landmarks ``(kind, x, y, height)``: kinds "building", "car", "fence", "lamp_post",
@@ -391,10 +473,19 @@ def build_outdoor(b: _Builder) -> list[Landmark]:
     if spec is None:
         raise ValueError(f"world {b.spec.name!r} has no outdoor block")
     s = _Scene(b, spec)
+    if lanes is not None:
+        _check_lanes(s, lanes)
     _pavement(s)
-    car_side = s.sides[int(s.rng.integers(4))]
+    if lanes is not None:
+        _road(s, lanes)
+        pw = spec.pavement_width
+        s.lanes = [(-s.hx - pw, s.hx + pw, -s.hy - pw, s.hy + pw), lanes.road_rect()]
+    # the parked cars stand on a side without the road: seen across it, they would hide the
+    # passing cars
+    sides = [side for side in s.sides if lanes is None or side.name != lanes.road_side]
+    car_side = sides[int(s.rng.integers(len(sides)))]
     car_band = spec.pavement_width + 1.5 + 2 * (spec.cars.width[1] if spec.cars.count else 0.0)
-    _buildings(s, car_side, car_band)
+    _buildings(s, car_side, car_band, lanes)
     _cars(s, car_side)
     _fences(s, car_side)
     _lamp_posts(s)
