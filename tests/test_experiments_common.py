@@ -67,10 +67,15 @@ def sfa(panoramas):
 
 
 def test_the_sfa_rotation_shortcut_agrees_with_transforming_every_view(sfa, panoramas):
-    shortcut = view_features(sfa, panoramas, Rotation(step=4), progress=False)
-    every_view = view_features(sfa, panoramas, Rotation(step=4), np.arange(10), progress=False)
+    rotation = Rotation(step=4)
+    shortcut = view_features(sfa, panoramas, rotation, progress=False)
+    views = rotation.views(panoramas)[0]  # (12, 10, H, W, 3): every view, transformed alone
+    every_view = sfa.transform(views.reshape(-1, *views.shape[2:])).reshape(12, 10, 4)
     assert shortcut.shape == (12, 10, 4)
     np.testing.assert_allclose(shortcut, every_view, atol=1e-6)
+    # some views: picked from the shortcut's, the same numbers
+    picked = view_features(sfa, panoramas, rotation, np.array([7, 1, 3]), progress=False)
+    np.testing.assert_allclose(picked, every_view[:, [7, 1, 3]], atol=1e-6)
 
 
 def test_the_rotation_step_cannot_disagree(sfa, panoramas):

@@ -116,19 +116,22 @@ def view_features(
     """Features ``(L, K', k)`` of the rotated views ``indices`` (all ``K`` by default) of each
     panorama ``(L, H, W, 3)``, a few thousand views at a time.
 
-    For all views, a method with ``transform_rotations(panoramas, step)`` computes them itself
-    (hierarchical SFA exploits that a rotation permutes its layer-1 patches); otherwise the
-    method transforms every view.
+    A method with ``transform_rotations(panoramas, step)`` computes all views itself
+    (hierarchical SFA exploits that a rotation permutes its layer-1 patches, so all 120 views
+    of a 600 px panorama cost less than 24 views transformed one by one) and the ``indices``
+    are picked from them; otherwise the method transforms every view asked for.
     """
     width = panoramas.shape[2]
     n_views = rotation.n_views(width) if indices is None else len(indices)
-    per_block = max(1, VIEWS_PER_BLOCK // n_views)
-    shortcut = indices is None and hasattr(method, "transform_rotations")
+    shortcut = hasattr(method, "transform_rotations")
+    per_block = max(1, VIEWS_PER_BLOCK // (rotation.n_views(width) if shortcut else n_views))
     out = []
     for i in tqdm(range(0, len(panoramas), per_block), desc=desc, disable=not progress):
         block = np.asarray(panoramas[i : i + per_block])
         if shortcut:
             features = method.transform_rotations(block, rotation.step)
+            if indices is not None:
+                features = np.asarray(features)[:, indices]
         else:
             views = rotation.views(block, indices)[0]  # (L', K', H, W', 3)
             features = method.transform(views.reshape(-1, *views.shape[2:]))
