@@ -2,12 +2,16 @@
 
 Two measurements in one process:
 
-1. **Quick board, local backend**: ``band_means`` on every track of ``eval/tracks`` at its quick
-   size (``sfa-gym leaderboard run --quick``), one track at a time, from a **cold** render
-   cache (a fresh folder unless ``--cache`` names one): the wall time per track includes
-   rendering its runs; the renders' own seconds (the cache's ``renders.log``) are listed beside.
+1. **Quick board, local backend**: ``band_means`` (or the ``--board-method`` methods, one after
+   the other) on every track of ``eval/tracks`` at its quick size (``sfa-gym leaderboard run
+   --quick``), one track at a time, from a **cold** render cache (a fresh folder unless
+   ``--cache`` names one): the wall time per track includes rendering its runs; the renders'
+   own seconds (the cache's ``renders.log``) are listed beside. The outdoor tracks share their
+   drive: the second one renders only its own test runs.
 2. **Ray speed-up**: the tasks (track, method, world seed) of ``band_means`` and
-   ``fft_magnitude`` on the quick localization tracks, with the render cache **warm** (step 1
+   ``fft_magnitude`` on the quick localization tracks of the grid and unvisited-region
+   protocols (not the outdoor ones: minutes per task, they would swamp the comparison with
+   the figures measured before them), with the render cache **warm** (step 1
    rendered every run they need: the cache is keyed by pixels, not by method), so it measures
    evaluation. The same tasks run on a local Ray started with ``num_cpus=1`` (one worker at a
    time), then, after ``ray.shutdown()``, with ``num_cpus=2``. Wall time of each sweep (worker
@@ -17,10 +21,13 @@ Two measurements in one process:
 The machine's load average is recorded before and after each phase: on a shared machine the
 figures are noisy. Writes ``eval/results/leaderboard_bench.json`` (``--json``).
 
-Usage (from the repository root; ~15-20 min on 2 cores)::
+Usage (from the repository root; ~15-20 min on 2 cores, plus the outdoor tracks)::
 
     .venv/bin/python eval/bench_leaderboard.py
     .venv/bin/python eval/bench_leaderboard.py --skip-board --cache ~/.cache/sfa-gym/runs
+    .venv/bin/python eval/bench_leaderboard.py --skip-ray --tracks outdoor_paper \
+        outdoor_appearance --board-method band_means fft_magnitude eval/methods/sfa.py \
+        --json eval/results/leaderboard_outdoor_bench.json
 """
 
 from __future__ import annotations
@@ -62,14 +69,21 @@ def _render_seconds(cache: RunCache, before: int) -> tuple[int, float]:
     return len(lines), round(seconds, 2)
 
 
-def quick_board(tracks: list[Any], method: str, results: Path, cache: RunCache) -> list[dict]:
-    """Score ``method`` on each track at the quick size, locally; wall time per track."""
+def method_file(method: str) -> Path:
+    """A method named by its file in ``baselines/`` (``band_means``) or by a path."""
+    path = Path(method)
+    return path if path.suffix == ".py" else BASELINES / f"{method}.py"
+
+
+def quick_board(tracks: list[Any], methods: list[str], results: Path, cache: RunCache) -> list:
+    """Score each method on each track at the quick size, locally; wall time per (track,
+    method), renders included for the first method that needs them."""
     rows = []
-    for track in tracks:
+    for track, method in ((t, m) for t in tracks for m in methods):
         before, load = len(cache.renders()), _load()
         started = time.perf_counter()
         (path,) = run_sweep(
-            [track], [(BASELINES / f"{method}.py", {})], results, quick=True, cache_dir=cache.root
+            [track], [(method_file(method), {})], results, quick=True, cache_dir=cache.root
         )
         seconds = time.perf_counter() - started
         renders, render_s = _render_seconds(cache, before)
@@ -77,7 +91,7 @@ def quick_board(tracks: list[Any], method: str, results: Path, cache: RunCache) 
         rows.append(
             {
                 "track": track.name,
-                "method": method,
+                "method": Path(method).stem,
                 "seconds": round(seconds, 2),
                 "renders": renders,
                 "render_seconds": render_s,
@@ -89,8 +103,8 @@ def quick_board(tracks: list[Any], method: str, results: Path, cache: RunCache) 
             }
         )
         print(
-            f"{track.name:18s} {seconds:7.1f} s  ({renders} renders, {render_s:.1f} s)  "
-            f"score {result['score']['mean']:.3f}",
+            f"{track.name:18s} {Path(method).stem:14s} {seconds:7.1f} s  ({renders} renders, "
+            f"{render_s:.1f} s)  score {result['score']['mean']:.3f}",
             flush=True,
         )
     return rows
@@ -135,9 +149,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cache", type=Path, default=None, help="render cache (default: fresh)")
     parser.add_argument("--results", type=Path, default=ROOT / "results" / "leaderboard_bench")
     parser.add_argument("--json", type=Path, default=ROOT / "eval/results/leaderboard_bench.json")
-    parser.add_argument("--board-method", default="band_means")
+    parser.add_argument(
+        "--board-method",
+        nargs="+",
+        default=["band_means"],
+        help="methods of the quick board: names in baselines/ or plug-in paths",
+    )
     parser.add_argument("--ray-methods", nargs="+", default=["band_means", "fft_magnitude"])
     parser.add_argument("--skip-board", action="store_true", help="only the Ray speed-up")
+    parser.add_argument("--skip-ray", action="store_true", help="only the quick board")
     parser.add_argument("--tracks", nargs="+", default=None, help="track names (default: all)")
     args = parser.parse_args(argv)
 
@@ -163,13 +183,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"quick board, {args.board_method}, local backend, cache {cache_root}", flush=True)
         board = quick_board(tracks, args.board_method, args.results, cache)
         report["quick_board"] = {
-            "method": args.board_method,
+            "methods": [Path(m).stem for m in args.board_method],
             "backend": "local",
             "cache": "cold" if report["cache_renders_at_start"] == 0 else "as found",
             "tracks": board,
             "seconds": round(sum(r["seconds"] for r in board), 2),
         }
-    localization = [t for t in tracks if t.kind == "localization"]
+    if args.skip_ray:
+        return _write(report, started, args.json)
+    localization = [t for t in tracks if t.kind == "localization" and t.evaluation != "outdoor"]
     tasks = [
         Task(str(t.path), str(BASELINES / f"{m}.py"), {}, seed, True, str(cache_root))
         for t in localization
@@ -190,19 +212,25 @@ def main(argv: list[str] | None = None) -> int:
     report["ray"]["renders_during_ray"] = len(cache.renders()) - before
     if not args.skip_board:
         local = {
-            (r["track"], int(seed)): score
+            (r["track"], r["method"], int(seed)): score
             for r in report["quick_board"]["tracks"]
             for seed, score in r["scores"].items()
         }
+        # every task the board also ran (same track, method and world seed)
+        keys = [(Path(t.track_path).stem, Path(t.method_path).stem, t.world_seed) for t in tasks]
         report["ray"]["same_scores_as_local"] = all(
-            local[(Path(t.track_path).stem, t.world_seed)] == score
-            for t, score in zip(tasks, report["ray"]["scores"], strict=True)
-            if Path(t.method_path).stem == args.board_method
+            local[key] == score
+            for key, score in zip(keys, report["ray"]["scores"], strict=True)
+            if key in local
         )
+    return _write(report, started, args.json)
+
+
+def _write(report: dict[str, Any], started: float, path: Path) -> int:
     report["seconds"] = round(time.perf_counter() - started, 2)
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(args.json, report)
-    print(f"wrote {args.json}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(path, report)
+    print(f"wrote {path}")
     return 0
 
 

@@ -60,7 +60,14 @@ from sfa_gym.localization.appearance import Normalisation, normalise_panoramas
 from sfa_gym.localization.methods import FeatureMethod
 from sfa_gym.rotation import Rotation, check_step, spread_indices
 
-__all__ = ["CONDITIONS", "OutdoorExperiment", "run_outdoor_experiment"]
+__all__ = [
+    "CONDITIONS",
+    "OutdoorExperiment",
+    "condition_scores",
+    "interleave",
+    "run_outdoor_experiment",
+    "test_sets",
+]
 
 ENV_ID = "sfa_gym/OmniRoverOutdoor-v0"
 Condition = Literal["after", "later", "overcast", "no_movers", "other_day"]
@@ -299,9 +306,11 @@ def interleave(arrays: Sequence[NDArray[Any]]) -> NDArray[Any]:
     return stacked.reshape(-1, *stacked.shape[2:])
 
 
-def _test_sets(
+def test_sets(
     config: OutdoorExperiment, drive: Any, runs: dict[str, Any], region: Sequence[float]
 ) -> dict[str, _TestSet]:
+    """The test frames of each condition (``"after"``: the drive's frames after training),
+    normalised as ``config`` says, with their positions and the frames inside ``region``."""
     n = config.train_frames
     if len(drive) != n + config.test_frames:
         raise ValueError(
@@ -320,7 +329,9 @@ def _test_sets(
     return sets
 
 
-def _scores(estimates: NDArray, test: _TestSet, test_range: NDArray) -> dict[str, Any]:
+def condition_scores(estimates: NDArray, test: _TestSet, test_range: NDArray) -> dict[str, Any]:
+    """MAE of ``estimates (M, 2)`` over ``all`` test frames, the ``unvisited`` region and the
+    ``visited`` rest, in m and in % of ``test_range``."""
     entry: dict[str, Any] = {"all": mae_dict(mae(estimates, test.xy, coordinate_range=test_range))}
     for part, where in (("unvisited", test.inside), ("visited", ~test.inside)):
         entry[part] = (
@@ -364,7 +375,7 @@ def run_outdoor_experiment(
     out.mkdir(parents=True, exist_ok=True)
     drive, runs = _record(config, out, progress)
     region = south_west(drive.metadata["arena_bounds"])
-    tests = _test_sets(config, drive, runs, region)
+    tests = test_sets(config, drive, runs, region)
     n = config.train_frames
     train_pan, train_xy = _training_set(config, drive, out, progress)
     train_pan = normalise_panoramas(train_pan, config.normalise)
@@ -400,7 +411,7 @@ def run_outdoor_experiment(
             entry[reg] = {}
             for c, t in tests.items():
                 estimates = predict_locations(regressor, f_tests[c])
-                entry[reg][c] = _scores(estimates, t, test_range)
+                entry[reg][c] = condition_scores(estimates, t, test_range)
                 if i == 0 and reg == FIGURE_REGRESSOR:
                     sfa_estimates[c] = estimates
         found[name] = entry
@@ -458,7 +469,7 @@ def _all_windows(
     f_train = view_features(sfa, train_pan, rotation, None, "sfa train, all windows", progress)
     f_test = view_features(sfa, test.panoramas, rotation, None, "sfa test, all windows", progress)
     estimates = fit_predict(make_regressor("linear"), f_train, train_xy, f_test)
-    return {"linear": {"after": _scores(estimates, test, test_range)}}
+    return {"linear": {"after": condition_scores(estimates, test, test_range)}}
 
 
 @dataclass

@@ -3,7 +3,13 @@ and reused by every method, every track and every process.
 
 The key of a :class:`RunRequest` is the SHA-256 of a JSON object holding the content of the
 world spec (not only its name: an edited spec is another world), the world seed, the panorama
-spec, the env id, the driver with its arguments, the number of frames, the reset seed and
+spec, the env id, the driver with its arguments, the number of frames, the reset seed,
+:data:`RENDERING_VERSION` and, when the request passes other env kwargs (camera, mirror, rover,
+dynamics spec, start hour, sensor, control period, ...), every one of them whose value differs
+from the env id's default (its registered kwargs over its constructor's defaults). Leaving a
+kwarg out and passing its default are the same run, and a request without env kwargs has the
+key it had before they were part of it. The defaults themselves (and named presets such as
+``rover="outdoor"``) are code, like the renderer: a change to them bumps
 :data:`RENDERING_VERSION`. The run lives in ``<cache>/<key>.run`` (the run file format of
 :mod:`sfa_gym.recording.runfile`) beside ``<key>.json``, the key's readable content.
 
@@ -21,16 +27,25 @@ import contextlib
 import dataclasses
 import fcntl
 import hashlib
+import inspect
 import json
+import math
 import os
 import shutil
 import time
-from collections.abc import Iterator
-from dataclasses import dataclass
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["RENDERING_VERSION", "RunCache", "RunRequest", "default_cache_dir"]
+__all__ = [
+    "RENDERING_VERSION",
+    "RunCache",
+    "RunRequest",
+    "changed_env_kwargs",
+    "default_cache_dir",
+    "env_defaults",
+]
 
 RENDERING_VERSION = 1
 """Bumped when the renderer, the camera or the recorder changes pixels for the same request
@@ -47,6 +62,93 @@ def default_cache_dir() -> Path:
     return Path.home() / ".cache" / "sfa-gym" / "runs"
 
 
+# the request's own fields: env kwargs may not set them a second time
+_REQUEST_KWARGS = ("world", "world_seed", "panorama")
+
+
+def _canonical(name: str, value: Any) -> Any:
+    """``value`` as JSON types that compare equal exactly when the values do: dataclasses as
+    ``{"type": class name, **fields}``, tuples as lists, numpy scalars as Python numbers.
+
+    Raises:
+        TypeError: a value without a stable JSON form (its ``repr`` could hold an address);
+            the message names the kwarg ``name``.
+    """
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        fields = {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
+        return {"type": type(value).__name__, **_canonical(name, fields)}
+    if isinstance(value, Mapping):
+        return {str(k): _canonical(f"{name}.{k}", v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_canonical(f"{name}[{i}]", v) for i, v in enumerate(value)]
+    if hasattr(value, "item") and callable(value.item) and getattr(value, "ndim", None) == 0:
+        value = value.item()  # numpy scalars
+    if isinstance(value, float) and not math.isfinite(value):
+        raise TypeError(f"env kwarg {name} = {value!r}: a cache key needs a finite number")
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    raise TypeError(
+        f"env kwarg {name} = {value!r} ({type(value).__name__}) has no stable JSON form for "
+        "the cache key; pass numbers, strings, bools, None, lists, dicts or dataclasses"
+    )
+
+
+def env_defaults(env_id: str) -> dict[str, Any]:
+    """The kwargs ``gym.make(env_id)`` uses when given none: the registered ones over the
+    defaults of the entry point's signature (a kwarg without a default is absent).
+
+    Raises:
+        ValueError: ``env_id`` is not registered.
+    """
+    import gymnasium as gym
+    from gymnasium.envs.registration import load_env_creator
+
+    import sfa_gym  # noqa: F401  (registers the sfa_gym ids)
+
+    try:
+        spec = gym.spec(env_id)
+    except gym.error.Error as error:
+        raise ValueError(f"env_id {env_id!r} is not a registered env: {error}") from None
+    creator = spec.entry_point if callable(spec.entry_point) else load_env_creator(spec.entry_point)
+    defaults = {
+        name: p.default
+        for name, p in inspect.signature(creator).parameters.items()
+        if p.default is not inspect.Parameter.empty
+        and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+    }
+    return {**defaults, **spec.kwargs}
+
+
+def changed_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
+    """``env_kwargs`` without those equal to the env id's defaults (:func:`env_defaults`), in
+    canonical JSON form (see :func:`_canonical`), sorted by name: what enters the cache key.
+
+    Raises:
+        ValueError: a kwarg the env does not take, or one of the request's own fields
+            (``world``, ``world_seed``, ``panorama``).
+        TypeError: a value without a stable JSON form.
+    """
+    defaults = env_defaults(env_id)
+    changed = {}
+    for name in sorted(env_kwargs):
+        if name in _REQUEST_KWARGS:
+            raise ValueError(
+                f"env kwarg {name!r} is a field of the RunRequest itself; set it there"
+            )
+        if name not in defaults:
+            raise ValueError(
+                f"env kwarg {name!r} is not a keyword argument of {env_id} with a default; "
+                f"it takes {sorted(defaults)}"
+            )
+        value = _canonical(name, env_kwargs[name])
+        # compared as JSON text: Python's == would call True equal to 1
+        if json.dumps(value, sort_keys=True) != json.dumps(
+            _canonical(name, defaults[name]), sort_keys=True
+        ):
+            changed[name] = value
+    return changed
+
+
 @dataclass(frozen=True)
 class RunRequest:
     """A run to render: ``record(env_id, driver, n_steps=n_steps, seed=seed)`` in ``world``
@@ -55,6 +157,9 @@ class RunRequest:
     Attributes:
         driver: a :class:`~sfa_gym.recording.drivers.GridPositions` or a driver instance; its
             ``describe()`` enters the key.
+        env_kwargs: further keyword arguments of ``gym.make(env_id)`` (not ``world``,
+            ``world_seed`` or ``panorama``: fields of the request); those that differ from the
+            env id's defaults enter the key (see the module docstring).
     """
 
     world: str
@@ -64,6 +169,7 @@ class RunRequest:
     n_steps: int | None = None
     seed: int = 0
     env_id: str = "sfa_gym/OmniRover-v0"
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
 
     def panorama_spec(self) -> Any:
         """The env's :class:`~sfa_gym.sim.camera.PanoramaSpec` (other fields at defaults)."""
@@ -78,7 +184,7 @@ class RunRequest:
 
         spec = dataclasses.asdict(load_world_spec(self.world))
         spec_text = json.dumps(spec, sort_keys=True, default=list)
-        return {
+        content = {
             "rendering_version": RENDERING_VERSION,
             "env_id": self.env_id,
             "world": self.world,
@@ -89,6 +195,11 @@ class RunRequest:
             "n_steps": self.n_steps,
             "seed": int(self.seed),
         }
+        changed = changed_env_kwargs(self.env_id, self.env_kwargs) if self.env_kwargs else {}
+        if changed:
+            # only when there are any: the keys of runs without them stay what they were
+            content["env_kwargs"] = changed
+        return content
 
     def key(self) -> str:
         """The cache key: SHA-256 (hex) of :meth:`key_content` as canonical JSON."""
@@ -168,6 +279,7 @@ class RunCache:
             n_steps=request.n_steps,
             seed=request.seed,
             env_kwargs={
+                **request.env_kwargs,
                 "world": request.world,
                 "world_seed": request.world_seed,
                 "panorama": request.panorama_spec(),

@@ -4,8 +4,10 @@ A :class:`Task` holds only plain values (paths, a dict of arguments, ints), so t
 another process or machine unchanged; :func:`run_task` loads the track and the method there and
 returns the task's scores as JSON types. The evaluations reuse the protocols' code paths
 (:mod:`sfa_gym.experiments`): the same position selection, the same fitting of a method on all
-rotated views of the training panoramas in visiting order, the same regressions and MAE.
-Rendered runs come from the shared :class:`~sfa_gym.leaderboard.cache.RunCache`.
+rotated views of the training panoramas in visiting order, the same regressions and MAE; the
+outdoor tracks are in :mod:`~sfa_gym.leaderboard.outdoor`, navigation in
+:mod:`~sfa_gym.leaderboard.navigation`. Rendered runs come from the shared
+:class:`~sfa_gym.leaderboard.cache.RunCache`.
 
 Every localization score is the mean of the x and y MAE in % of the test positions' coordinate
 range (lower is better); the navigation score is the success rate (higher is better).
@@ -225,6 +227,10 @@ def run_task(task: Task) -> dict[str, Any]:
     with threadpool_limits(limits=1):
         if track.evaluation == "unvisited_region":
             scores = _region_scores(track, params, task.world_seed, method, cache)
+        elif track.evaluation == "outdoor":
+            from sfa_gym.leaderboard.outdoor import outdoor_scores
+
+            scores = outdoor_scores(track, params, task.world_seed, method, cache)
         elif track.evaluation == "navigation":
             from sfa_gym.leaderboard.navigation import navigation_scores
 

@@ -170,14 +170,46 @@ def _cell(score: dict[str, Any]) -> str:
     return f"{score['mean']:.2f}{interval}"
 
 
+def _part_mean(tasks: list[dict[str, Any]], part: str) -> str:
+    values = [t["scores"]["parts"].get(part) for t in tasks]
+    values = [v for v in values if v is not None]
+    return f"{np.mean(values):.2f}" if values else "-"
+
+
+def _parts_tables(
+    columns: dict[str, dict[str, Any]], tracks: list[str], methods: list[str]
+) -> list[str]:
+    """Markdown lines: for each track whose tasks report ``parts`` (the outdoor tracks: each
+    condition, the unvisited region), a table of each part's mean over the world seeds."""
+    lines: list[str] = []
+    for t in tracks:
+        tasks = [task for r in columns[t].values() for task in r["tasks"]]
+        if not tasks or not all("parts" in task["scores"] for task in tasks):
+            continue
+        parts = list(dict.fromkeys(p for task in tasks for p in task["scores"]["parts"]))
+        lines += [
+            "",
+            f"{t}: the parts of the score (mean over the world seeds)",
+            "",
+            "| method | " + " | ".join(parts) + " |",
+            "|---" * (len(parts) + 1) + "|",
+        ]
+        for m in (m for m in methods if m in columns[t]):
+            cells = [_part_mean(columns[t][m]["tasks"], p) for p in parts]
+            lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def write_table(results_dir: str | os.PathLike[str], out: str | os.PathLike[str] | None = None):
     """Write ``LEADERBOARD.md`` and ``leaderboard.png`` (into ``out``, default the results
     folder) from every result under ``results_dir``; returns the markdown text.
 
     Rows are methods, columns tracks (full size and quick size kept apart); a cell is the mean
-    score over the world seeds with its t-interval. The chart has one panel per track (four a
-    row): a bar per method (the mean, with the t-interval) and a dot per world seed; the axis
-    follows the scores, so an interval wider than them is cut at the panel's edge.
+    score over the world seeds with its t-interval. Tracks whose scores have parts (the
+    outdoor tracks: each condition, the unvisited region) get a table of the parts below.
+    The chart has one panel per track (four a row): a bar per method (the mean, with the
+    t-interval) and a dot per world seed; the axis follows the scores, so an interval wider
+    than them is cut at the panel's edge.
     """
     import matplotlib
 
@@ -208,6 +240,7 @@ def write_table(results_dir: str | os.PathLike[str], out: str | os.PathLike[str]
     for m in methods:
         cells = [_cell(columns[t][m]["score"]) if m in columns[t] else "-" for t in tracks]
         lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    lines += _parts_tables(columns, tracks, methods)
     lines += ["", "| track | version | world seeds | commit |", "|---|---|---|---|"]
     for t in tracks:
         any_result = next(iter(columns[t].values()))

@@ -7,7 +7,7 @@ A track file (``eval/tracks/<name>.json``) is a JSON object::
      "track_version": 1,              # bumped whenever a change would change scores
      "kind": "localization" | "navigation",
      "evaluation": "paper_splits" | "train_test" | "few_labels" | "unvisited_region"
-                   | "unseen_worlds" | "navigation",
+                   | "unseen_worlds" | "outdoor" | "navigation",
      "description": "...",
      "world": "paper_sim",            # a world spec name in envs/
      "world_seeds": [100, 101, ...],  # scoring worlds; one task each; the interval is across them
@@ -17,7 +17,10 @@ A track file (``eval/tracks/<name>.json``) is a JSON object::
                                                     # seeds and parameter overrides
 
 ``unseen_worlds`` adds ``"fit_world_seeds"`` (one per scoring world: the world the method is
-fitted on); ``navigation`` adds ``params.episode_seed`` (episodes ``episode_seed + i``).
+fitted on); ``navigation`` adds ``params.episode_seed`` (episodes ``episode_seed + i``);
+``outdoor`` (the outdoor world's tracks, :mod:`~sfa_gym.leaderboard.outdoor`) takes the sizes
+of :class:`~sfa_gym.experiments.outdoor.OutdoorExperiment` and the test ``conditions`` scored,
+checked at both sizes when the file is loaded.
 
 Every seed of a track must stay clear of :data:`DEVELOPMENT_SEEDS`, the seeds the tests, the
 examples and the README use: a method tuned on those would otherwise be scored on what it was
@@ -35,6 +38,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
+
+from sfa_gym.leaderboard.outdoor import PARAMS as OUTDOOR_PARAMS
 
 __all__ = [
     "DEVELOPMENT_SEEDS",
@@ -65,7 +70,13 @@ DEVELOPMENT_SEEDS: Mapping[str, frozenset[int]] = {
 
 Kind = Literal["localization", "navigation"]
 Evaluation = Literal[
-    "paper_splits", "train_test", "few_labels", "unvisited_region", "unseen_worlds", "navigation"
+    "paper_splits",
+    "train_test",
+    "few_labels",
+    "unvisited_region",
+    "unseen_worlds",
+    "outdoor",
+    "navigation",
 ]
 
 _GRID = ("panorama", "grid", "n_train", "n_test", "order", "step")
@@ -87,6 +98,7 @@ REQUIRED_PARAMS: Mapping[str, tuple[str, ...]] = {
         "train_steps",
         "test_steps",
     ),
+    "outdoor": OUTDOOR_PARAMS,
     "navigation": (
         "env_id",
         "panorama",
@@ -105,6 +117,7 @@ EVALUATIONS: Mapping[str, str] = {
     "few_labels": "localization",
     "unvisited_region": "localization",
     "unseen_worlds": "localization",
+    "outdoor": "localization",
     "navigation": "navigation",
 }
 """Each evaluation and the kind of track it belongs to."""
@@ -288,6 +301,8 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
     if not isinstance(overrides, dict) or set(overrides) - set(required):
         bad = sorted(set(overrides) - set(required)) if isinstance(overrides, dict) else overrides
         raise TrackError(f"{where}: quick.params overrides unknown params {bad!r}")
+    if evaluation == "outdoor":
+        _check_outdoor(where, data["world"], world_seeds[0], seed, params, overrides)
     return Track(
         name=data["name"],
         track_version=track_version,
@@ -302,6 +317,33 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
         fit_world_seeds=fit_world_seeds,
         path=path,
     )
+
+
+def _check_outdoor(
+    where: str,
+    world: str,
+    world_seed: int,
+    seed: int,
+    params: dict[str, Any],
+    overrides: dict[str, Any],
+) -> None:
+    """Refuse an outdoor track whose world is not the outdoor env's or whose parameters the
+    outdoor experiment refuses, at either size."""
+    import gymnasium as gym
+
+    from sfa_gym.leaderboard.outdoor import ENV_ID, outdoor_config
+
+    expected = gym.spec(ENV_ID).kwargs["world"]
+    if world != expected:
+        raise TrackError(
+            f"{where}: world {world!r}: an outdoor track renders in {ENV_ID}, whose world is "
+            f"{expected!r}"
+        )
+    for size, sized in (("params", params), ("quick.params", {**params, **overrides})):
+        try:
+            outdoor_config(sized, world_seed, seed)
+        except (TypeError, ValueError) as error:
+            raise TrackError(f"{where}: {size}: {error}") from None
 
 
 def load_track(path: str | os.PathLike[str]) -> Track:
