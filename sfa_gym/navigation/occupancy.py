@@ -439,6 +439,17 @@ class OccupancyGrid:
         return float(self.geodesic(goal).distance(_point(start, "start")[None])[0])
 
 
+def free_goal(grid: OccupancyGrid, goal: ArrayLike) -> NDArray[np.float64]:
+    """``goal`` as a ``(2,)`` array; ValueError unless it lies in the free space of ``grid``."""
+    g = _point(goal, "goal")
+    if not grid.is_free(g[None])[0]:
+        raise ValueError(
+            f"goal {tuple(g.tolist())} is not in free space: outside the drivable area "
+            f"{grid.drivable} or within {grid.rover_radius:.3f} m of an obstacle or wall"
+        )
+    return g
+
+
 class GeodesicField:
     """Shortest-path distance to one goal over an :class:`OccupancyGrid` (the method is in the
     module docstring). Build it with :meth:`OccupancyGrid.geodesic`.
@@ -452,15 +463,9 @@ class GeodesicField:
     """
 
     def __init__(self, grid: OccupancyGrid, goal: ArrayLike) -> None:
-        g = _point(goal, "goal")
-        if not grid.is_free(g[None])[0]:
-            raise ValueError(
-                f"goal {tuple(g.tolist())} is not in free space: outside the drivable area "
-                f"{grid.drivable} or within {grid.rover_radius:.3f} m of an obstacle or wall"
-            )
         self.grid = grid
-        self.goal = g
-        self._g = grid._units(g)
+        self.goal = free_goal(grid, goal)
+        self._g = grid._units(self.goal)
         self._open_box = grid.bounds if grid.free.all() else None
         graph = self._graph = grid._graph
         corners = graph.corners
