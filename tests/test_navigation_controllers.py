@@ -3,6 +3,7 @@ on the features of a really fitted (small) hierarchical SFA, read from a coarse 
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import gymnasium as gym
@@ -102,3 +103,31 @@ def test_gradient_controller_is_deterministic(trained):
     env = gym.make("sfa_gym/OmniRoverNav-v0", feature_field=field)
     runs = [run_episode(env, GradientController.for_env(env, weights), seed=3) for _ in range(2)]
     np.testing.assert_array_equal(runs[0]["path"], runs[1]["path"])
+
+
+def test_search_spiral_grows_ends_on_a_lower_cost_and_avoids_what_is_ahead():
+    angles = np.linspace(-math.pi / 2, math.pi / 2, 7)
+    controller = GradientController(np.ones(2), angles)
+    controller.reset({}, {})
+    s = controller.settings
+    open_ranges = np.full(7, 2.0)
+    controller._search = (0.0, 100.0, 1.0)  # started at odometer 0 m, best cost 100, turning left
+    radii = []
+    for travelled in (0.0, 1.0, 3.0):
+        # an Archimedean spiral: r^2 = r0^2 + pitch * d / pi
+        expected = math.sqrt(s.search_start**2 + s.search_pitch * travelled / math.pi)
+        controller._v = min(s.speed, 0.9 * expected)  # the acceleration limit not in the way
+        v, w, stop = controller._spiral(80.0, travelled, open_ranges, yaw=0.0)
+        assert v > 0 and w > 0 and stop < 0
+        radii.append(v / w)
+        assert v / w == pytest.approx(expected, rel=1e-3)
+    assert radii[0] < radii[1] < radii[2]
+    # a wall close ahead and to the left: the spiral turns right, away from it
+    walled = open_ranges.copy()
+    walled[3:] = 0.35
+    controller._v = 0.3
+    _, w, _ = controller._spiral(80.0, 1.0, walled, yaw=0.0)
+    assert w < 0
+    # a cost below search_found of the best before it ends the search
+    assert controller._spiral(s.search_found * 100.0 - 1.0, 1.0, open_ranges, 0.0) is None
+    assert controller._search is None

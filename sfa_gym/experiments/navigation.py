@@ -95,7 +95,10 @@ def _training_panoramas(
     cells = np.stack(np.unravel_index(np.arange(n * n), (n, n)), axis=1)[:, ::-1]  # (i=x, j=y)
     order = grid_order(cells, "hilbert")
     positions = positions[order]
-    positions = positions[nav.occupancy.is_free(positions)]
+    # the env refuses poses closer to an obstacle than the footprint radius; a free cell
+    # reaches up to half a cell diagonal closer
+    ok = nav.layout.clearance(positions) > nav.rover.footprint_radius
+    positions = positions[nav.occupancy.is_free(positions) & ok]
     return np.stack(
         [
             camera.reset(options={"pose": (x, y, 0.0)})[0]
@@ -135,7 +138,9 @@ def _field(
         camera,
         model,
         spacing=config.field_spacing,
-        free=nav.occupancy.is_free,
+        free=lambda p: (
+            nav.occupancy.is_free(p) & (nav.layout.clearance(p) > nav.rover.footprint_radius)
+        ),
         progress=progress,
         # the cost weights travel with the field: agents trained on it later need them
         model_info={

@@ -126,6 +126,19 @@ class GradientSettings:
     """weight of the push away from close range readings, against the unit descent direction"""
     influence: float = 0.9
     """range (m) below which a reading pushes the rover away; the push grows linearly to 1 at 0"""
+    search_after: float = 4.0
+    """seconds without lowering the best cost by ``progress`` (the rover circles or sits in a
+    false minimum of the cost, most of them along walls) before it searches around itself"""
+    search_pitch: float = 0.3
+    """metres between the loops of the search spiral"""
+    search_start: float = 0.2
+    """radius (m) of the search spiral's first loop"""
+    search_found: float = 0.5
+    """the search ends when the cost falls below this fraction of the best cost before it"""
+    searches: int = 0
+    """searches per episode at most (0, the default: none). On 100-episode sets (two seed sets,
+    two world seeds, obstacle and open worlds) 3 searches changed success by -4 to +5 points,
+    within the spread that the weave's random phase alone gives: not yet a gain"""
 
 
 class LocalLinearFit:
@@ -228,7 +241,11 @@ class GradientController:
     has false minima along the walls. It stops when the running mean of the cost
     falls below the cost of being ``stop_distance`` from the goal in the direction where the cost
     rises slowest (the smaller eigenvalue of ``J^T W J``) plus the fit's noise floor,
-    and gives up (stops) after ``give_up`` metres without progress.
+    and gives up (stops) after ``give_up`` metres without progress. With ``searches``, stuck
+    in a false minimum (``search_after`` seconds without progress while the fit's curvature
+    puts the goal within ``slow_distance``: mostly by walls and obstacles, where the rover
+    otherwise turns on the spot until the time limit), it drives an outward spiral until the
+    cost falls to ``search_found`` of its best, and follows the gradient again from there.
 
     Args:
         weights: ``(k,)`` feature weights (:func:`slowness_weights`).
@@ -280,6 +297,10 @@ class GradientController:
         self._best_at = 0.0
         self._v = 0.0
         self._leave: tuple[float, float] | None = None  # (direction, odometer at the start)
+        self._t = self._best_t = 0.0  # seconds since the start, and since the best cost
+        # (odometer at its start, best cost before it, turning direction) of a search, if on
+        self._search: tuple[float, float, float] | None = None
+        self._searches = 0
         self._phase = float(self.rng.uniform(0, math.tau))
         self.estimate: dict[str, float] = {}
 
@@ -294,8 +315,9 @@ class GradientController:
 
         cost = float(np.sum(self.weights * (f - g) ** 2))
         self._costs.append(cost)
+        self._t += self.dt
         if cost < self._best * (1 - s.progress):
-            self._best, self._best_at = cost, travelled
+            self._best, self._best_at, self._best_t = cost, travelled, self._t
         if travelled - self._best_at > s.give_up:
             return self._stop()
 
@@ -329,6 +351,19 @@ class GradientController:
         if len(self._costs) == s.stop_window and np.mean(self._costs) < stop_cost:
             return self._stop()
 
+        # stuck where the fit's curvature says the goal is near but the cost stays above the
+        # stop threshold: a false minimum, not a slow descent far from the goal
+        stuck = self._t - self._best_t > s.search_after and distance < s.slow_distance
+        if self._search is None and stuck:
+            if self._searches < s.searches:
+                self._searches += 1
+                turn = 1.0 if self._searches % 2 else -1.0
+                self._search = (travelled, self._best, turn)
+        if self._search is not None:
+            action = self._spiral(cost, travelled, ranges, yaw)
+            if action is not None:
+                return action
+
         direction = step / (np.linalg.norm(step) + 1e-12) + s.repel * self._push(ranges, yaw)
         weave = math.radians(s.weave_deg) * math.sin(
             self._phase + math.tau * travelled / s.weave_wavelength
@@ -338,6 +373,26 @@ class GradientController:
         scale = min(1.0, distance / s.slow_distance)
         speed = max(s.min_speed, s.speed * scale) * max(math.cos(heading), 0.0)
         return self._drive(speed, s.turn_gain * heading)
+
+    def _spiral(self, cost: float, travelled: float, ranges: NDArray, yaw: float) -> NDArray | None:
+        """The next move of the search spiral, or None once it has found a lower cost (or gone
+        ``give_up`` metres): the cost has a false minimum here, and a spiral of growing radius
+        around it samples the cost on all sides until one is lower. Its moves span the plane,
+        so the local fit that takes over afterwards starts from a well-determined Jacobian."""
+        s = self.settings
+        start, before, turn = self._search
+        if cost < s.search_found * before:
+            self._search, self._best_t = None, self._t
+            return None
+        # radius after d metres of an Archimedean spiral: r^2 = r0^2 + pitch * d / pi
+        radius = math.sqrt(s.search_start**2 + s.search_pitch * (travelled - start) / math.pi)
+        speed = min(s.speed, 0.9 * self.w_max * radius)
+        # the range sensor bends the spiral as it bends the descent: pushed away from close
+        # readings, and never into a blocked direction
+        direction = np.array([math.cos(yaw), math.sin(yaw)]) + s.repel * self._push(ranges, yaw)
+        heading = self._unblocked(ranges, wrap_angle(math.atan2(direction[1], direction[0]) - yaw))
+        speed *= max(math.cos(heading), 0.0)
+        return self._drive(speed, turn * speed / radius + s.turn_gain * heading)
 
     def _push(self, ranges: NDArray, yaw: float) -> NDArray:
         """Away from the close range readings, in the odometry frame."""
