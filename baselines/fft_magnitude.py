@@ -79,6 +79,8 @@ class FFTMagnitude:
     name = "fft_magnitude"
     extra_regressors = ("map",)
     """regressions reported besides ``linear`` and ``regressor``"""
+    rotation_invariant = True
+    """a full-width rotated view (a circular shift of the columns) has the panorama's features"""
 
     def __init__(self, args: Args = Args()) -> None:
         self.args = args

@@ -38,10 +38,18 @@ def test_baselines_import_only_the_library_not_each_other():
                 assert top != "baselines" and top not in stems, f"{path.name} imports {name}"
 
 
+@pytest.mark.parametrize("name", ["band_means", "fft_magnitude", "raw_pixels", "pca"])
+def test_only_column_statistics_declare_rotation_invariance(name):
+    # the evaluation loop transforms each panorama once for these: the claim must hold
+    declared = getattr(_method(name), "rotation_invariant", False)
+    assert declared == (name in ("band_means", "fft_magnitude"))
+
+
 @pytest.mark.parametrize("name", ["band_means", "fft_magnitude"])
 def test_rotation_invariant_baselines_under_every_circular_shift(name):
     views = _views(2, w=60)
     method = _method(name).fit(views)
+    assert method.rotation_invariant
     reference = method.transform(views)
     for panorama, expected in zip(views, reference, strict=True):
         rotated, _ = rotated_views(panorama, step=1)  # all 60 shifts, np.roll(-k) each

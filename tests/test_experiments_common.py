@@ -153,3 +153,28 @@ def test_both_protocols_nest_the_same_sfa_settings(protocol):
     assert protocol().rotation == Rotation(step=5)
     with pytest.raises(ValueError, match="n_outputs must be a positive int"):
         protocol(sfa=SFASettings(n_outputs=0)).validate()
+
+
+def test_rotation_invariant_methods_transform_each_panorama_once(panoramas):
+    from sfa_gym.cli.plugins import default_plugin_folder
+    from sfa_gym.localization.methods import load_method_file
+
+    folder, _ = default_plugin_folder()
+    band_means = load_method_file(folder / "band_means.py")(n_bands=2)
+    calls = []
+
+    class Counting(type(band_means)):
+        def transform(self, views):
+            calls.append(len(views))
+            return super().transform(views)
+
+    method = fit_method(Counting(band_means.args), panoramas, Rotation(step=4))
+    fast = view_features(method, panoramas, Rotation(step=4), progress=False)
+    assert calls == [len(panoramas)]  # the panoramas themselves, no rotated views
+    views = Rotation(step=4).views(panoramas)[0]
+    brute = band_means.fit(panoramas).transform(views.reshape(-1, *views.shape[2:]))
+    np.testing.assert_array_equal(fast, brute.reshape(fast.shape))
+    # narrower views are not circular shifts of the panorama: every view is transformed
+    calls.clear()
+    view_features(method, panoramas, Rotation(step=4, window=20), np.arange(3), progress=False)
+    assert calls and sum(calls) == 3 * len(panoramas)

@@ -31,6 +31,7 @@ __all__ = [
     "SlowFeatureMethod",
     "evaluate_methods",
     "fit_method",
+    "full_width",
     "invariance_entry",
     "methods_with_sfa",
     "view_features",
@@ -119,10 +120,22 @@ def view_features(
     A method with ``transform_rotations(panoramas, step)`` computes all views itself
     (hierarchical SFA exploits that a rotation permutes its layer-1 patches, so all 120 views
     of a 600 px panorama cost less than 24 views transformed one by one) and the ``indices``
-    are picked from them; otherwise the method transforms every view asked for.
+    are picked from them. A method that declares ``rotation_invariant = True`` (a column
+    statistic: the features of a circular shift of the whole panorama are its own) transforms
+    each panorama once when the views are full width. Otherwise the method transforms every
+    view asked for.
     """
     width = panoramas.shape[2]
     n_views = rotation.n_views(width) if indices is None else len(indices)
+    if getattr(method, "rotation_invariant", False) and full_width(rotation, panoramas):
+        out = [
+            np.asarray(method.transform(np.asarray(panoramas[i : i + VIEWS_PER_BLOCK])))
+            for i in tqdm(
+                range(0, len(panoramas), VIEWS_PER_BLOCK), desc=desc, disable=not progress
+            )
+        ]
+        features = np.concatenate(out).astype(np.float64)
+        return np.repeat(features[:, None], n_views, axis=1)
     shortcut = hasattr(method, "transform_rotations")
     per_block = max(1, VIEWS_PER_BLOCK // (rotation.n_views(width) if shortcut else n_views))
     out = []
@@ -149,8 +162,15 @@ def fit_method(
         if own != rotation:
             raise ValueError(f"{method.name} was set up for {own}, asked to fit on {rotation}")
         return method.fit_rotations(panoramas)
+    if getattr(method, "rotation_invariant", False) and full_width(rotation, panoramas):
+        return method.fit(np.asarray(panoramas))  # every full-width view is alike
     views = rotation.views(panoramas)[0]
     return method.fit(views.reshape(-1, *views.shape[2:]))
+
+
+def full_width(rotation: Rotation, panoramas: NDArray[np.uint8]) -> bool:
+    """Whether the views of ``rotation`` span the whole width of ``panoramas (L, H, W, 3)``."""
+    return rotation.view_width(panoramas.shape[2]) == panoramas.shape[2]
 
 
 def invariance_entry(train_features: NDArray[np.float64]) -> dict[str, Any]:
