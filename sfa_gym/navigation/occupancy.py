@@ -42,6 +42,9 @@ Speed (6 x 6 m at 0.05 m, a loaded 2-core machine; ``tests/test_occupancy.py`` c
 limits): the corner graph, once per grid, ~5 ms for ``paper_sim_maze`` (40 corners) and ~40 ms
 for ``paper_sim_obstacles`` (~180); a goal 0.1-0.4 ms; one query 0.07-0.11 ms in the median,
 under 0.5 ms at most; queries of many points at once cost about as much per point.
+
+(Longer than 550 lines on purpose: the free set, its exact line of sight and the geodesic on it
+are one definition, read together when judging whether a distance is right.)
 """
 
 from __future__ import annotations
