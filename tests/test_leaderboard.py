@@ -202,6 +202,33 @@ def test_a_truncated_entry_is_detected_and_rendered_again(tmp_path):
     assert cache.path(_request(seed=7002)) != cache.path(_request())
 
 
+def test_the_key_follows_the_code_that_makes_the_pixels(tmp_path, monkeypatch):
+    import shutil
+
+    import sfa_gym
+    from sfa_gym.leaderboard import cache as cache_module
+
+    package = Path(sfa_gym.__file__).parent
+    for name in ("sim", "recording", "localization"):
+        shutil.copytree(package / name, tmp_path / name)
+    before = cache_module.rendering_code_sha256(tmp_path)
+    assert before == cache_module.rendering_code_sha256(package)
+    # a comment in the camera code is another entry; code that does not render is not
+    camera = next((tmp_path / "sim" / "camera").glob("*.py"))
+    camera.write_text(camera.read_text() + "\n# edited\n")
+    edited = cache_module.rendering_code_sha256(tmp_path)
+    assert edited != before
+    regression = tmp_path / "localization" / "regression.py"
+    regression.write_text(regression.read_text() + "\n# edited\n")
+    assert cache_module.rendering_code_sha256(tmp_path) == edited
+    # and the request's key carries it
+    key = _request().key()
+    monkeypatch.setattr(cache_module, "_installed_code_sha256", lambda: edited)
+    assert _request().key() != key
+    with pytest.raises(FileNotFoundError, match="no Python sources"):
+        cache_module.rendering_code_sha256(tmp_path / "elsewhere")
+
+
 # ---------------------------------------------------------------------- backends, CLI
 
 

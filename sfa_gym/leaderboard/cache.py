@@ -3,14 +3,16 @@ and reused by every method, every track and every process.
 
 The key of a :class:`RunRequest` is the SHA-256 of a JSON object holding the content of the
 world spec (not only its name: an edited spec is another world), the world seed, the panorama
-spec, the env id, the driver with its arguments, the number of frames, the reset seed,
-:data:`RENDERING_VERSION` and, when the request passes other env kwargs (camera, mirror, rover,
-dynamics spec, start hour, sensor, control period, ...), every one of them whose value differs
-from the env id's default (its registered kwargs over its constructor's defaults). Leaving a
-kwarg out and passing its default are the same run, and a request without env kwargs has the
-key it had before they were part of it. The defaults themselves (and named presets such as
-``rover="outdoor"``) are code, like the renderer: a change to them bumps
-:data:`RENDERING_VERSION`. The run lives in ``<cache>/<key>.run`` (the run file format of
+spec, the env id, the driver with its arguments, the number of frames, the reset seed, the code
+that makes the pixels (:func:`rendering_code_sha256`: the sources of ``sfa_gym.sim`` and
+``sfa_gym.recording`` and the MuJoCo version), :data:`RENDERING_VERSION` and, when the request
+passes other env kwargs (camera, mirror, rover, dynamics spec, start hour, sensor, control
+period, ...), every one of them whose value differs from the env id's default (its registered
+kwargs over its constructor's defaults). Leaving a kwarg out and passing its default are the
+same run. The defaults themselves (and named presets such as ``rover="outdoor"``) are code,
+like the renderer, and so are in the code hash: an edit to the simulation, the camera, the
+drivers or the recorder is another cache entry, whether or not it changes a pixel (a stale
+picture is worse than a render). The run lives in ``<cache>/<key>.run`` (the run file format of
 :mod:`sfa_gym.recording.runfile`) beside ``<key>.json``, the key's readable content.
 
 Concurrency: a process that finds no valid entry takes an exclusive ``fcntl.flock`` on
@@ -26,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import fcntl
+import functools
 import hashlib
 import inspect
 import json
@@ -45,11 +48,16 @@ __all__ = [
     "changed_env_kwargs",
     "default_cache_dir",
     "env_defaults",
+    "rendering_code_sha256",
 ]
 
-RENDERING_VERSION = 1
-"""Bumped when the renderer, the camera or the recorder changes pixels for the same request
-(the package version is not part of the key: most releases do not change a pixel)."""
+RENDERING_VERSION = 2
+"""Bumped when pixels change for a reason the code hash does not see (the package version is
+not part of the key: most releases do not change a pixel). 2: the code hash joined the key."""
+
+# the packages whose code determines a run's pixels and poses (worlds, physics, camera,
+# drivers, recorder); the world specs' content is hashed separately
+_RENDERING_PACKAGES = ("sim", "recording")
 
 ENV_VARIABLE = "SFA_GYM_CACHE"
 
@@ -60,6 +68,31 @@ def default_cache_dir() -> Path:
     if override:
         return Path(override)
     return Path.home() / ".cache" / "sfa-gym" / "runs"
+
+
+def rendering_code_sha256(root: str | os.PathLike[str] | None = None) -> str:
+    """SHA-256 of the source files of :data:`_RENDERING_PACKAGES` under ``root`` (default: the
+    installed ``sfa_gym``, hashed once per process; path and content, in path order) and of
+    the MuJoCo version: what, besides the request, makes the pixels."""
+    if root is None:
+        return _installed_code_sha256()
+    import mujoco
+
+    root = Path(root)
+    digest = hashlib.sha256(f"mujoco {mujoco.__version__}\n".encode())
+    for package in _RENDERING_PACKAGES:
+        sources = sorted((root / package).rglob("*.py"))
+        if not sources:
+            raise FileNotFoundError(f"no Python sources under {root / package}")
+        for path in sources:
+            digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+            digest.update(path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+@functools.cache
+def _installed_code_sha256() -> str:
+    return rendering_code_sha256(Path(__file__).resolve().parent.parent)
 
 
 # the request's own fields: env kwargs may not set them a second time
@@ -186,6 +219,7 @@ class RunRequest:
         spec_text = json.dumps(spec, sort_keys=True, default=list)
         content = {
             "rendering_version": RENDERING_VERSION,
+            "rendering_code_sha256": rendering_code_sha256(),
             "env_id": self.env_id,
             "world": self.world,
             "world_spec_sha256": hashlib.sha256(spec_text.encode()).hexdigest(),
@@ -197,7 +231,7 @@ class RunRequest:
         }
         changed = changed_env_kwargs(self.env_id, self.env_kwargs) if self.env_kwargs else {}
         if changed:
-            # only when there are any: the keys of runs without them stay what they were
+            # only when there are any: leaving a kwarg out and passing its default are one run
             content["env_kwargs"] = changed
         return content
 
