@@ -56,6 +56,18 @@ def test_controller_refuses_bad_arguments():
         GradientController([1.0, -1.0])
     with pytest.raises(ValueError, match="stop_curvature must be 'flattest' or 'mean', got 'max'"):
         GradientController([1.0], settings=GradientSettings(stop_curvature="max"))
+    with pytest.raises(ValueError, match="memory must be a positive number, got -0.5"):
+        GradientController([1.0], settings=GradientSettings(memory=-0.5))
+    with pytest.raises(ValueError, match="probe_leg must be a finite number >= 0, got nan"):
+        GradientController([1.0], settings=GradientSettings(probe_leg=float("nan")))
+    with pytest.raises(ValueError, match="search_found must be in"):
+        GradientController([1.0], settings=GradientSettings(search_found=1.5))
+
+
+def test_navigation_experiment_checks_the_controller_settings():
+    bad = NavigationExperiment(gradient=GradientSettings(stop_window=0))
+    with pytest.raises(ValueError, match="stop_window must be a positive int, got 0"):
+        bad.validate()
 
 
 @pytest.fixture(scope="module")

@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 from sfa_gym._checks import check_int, check_positive, check_positive_int
 from sfa_gym.experiments.report import check_out_folder
 from sfa_gym.experiments.settings import EnvId, SFASettings, check_env_id
+from sfa_gym.navigation.controllers import GradientSettings
 
 __all__ = ["NavigationExperiment", "format_navigation_table", "run_navigation_experiment"]
 
@@ -63,6 +64,8 @@ class NavigationExperiment:
     """controllers to run: gradient (on every feature method), oracle, random"""
     sfa: SFASettings = SFASettings(node_dim=16, n_outputs=8)
     """the hierarchical SFA network"""
+    gradient: GradientSettings = GradientSettings()
+    """settings of the slow-feature-gradient controller (the same for every feature method)"""
 
     def validate(self) -> None:
         """Raise ValueError naming the first bad setting."""
@@ -80,6 +83,7 @@ class NavigationExperiment:
         if unknown or not self.controllers:
             raise ValueError(f"controllers must be among {list(CONTROLLERS)}, got {unknown}")
         self.sfa.validate()
+        self.gradient.validate()
 
 
 def _training_panoramas(
@@ -224,7 +228,8 @@ def run_navigation_experiment(
         env = gym.make(config.env_id, world_seed=config.world_seed, feature_field=field)
         runs: list[tuple[str, Any]] = []
         if "gradient" in config.controllers:
-            runs.append((f"gradient/{name}", GradientController.for_env(env, weights[name])))
+            controller = GradientController.for_env(env, weights[name], settings=config.gradient)
+            runs.append((f"gradient/{name}", controller))
             _landscape_figure(field, weights[name], nav, out / f"cost_landscape_{name}.png", name)
         if name == "sfa":
             runs += [
@@ -246,7 +251,7 @@ def run_navigation_experiment(
         env = GoalFeatureObservation(
             gym.make(config.env_id, world_seed=config.world_seed), models["sfa"]
         )
-        controller = GradientController.for_env(env, weights["sfa"])
+        controller = GradientController.for_env(env, weights["sfa"], settings=config.gradient)
         rendered = range(config.episode_seed, config.episode_seed + config.rendered_episodes)
         episodes = run_episodes(env, controller, rendered, progress, "gradient on sfa, rendered")
         results["controllers"]["gradient/sfa/rendered"] = _controller_entry(episodes)

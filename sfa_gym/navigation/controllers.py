@@ -23,7 +23,9 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sfa_gym._checks import check_finite, check_int, check_positive, check_positive_int
 from sfa_gym.geometry import wrap_angle
+from sfa_gym.navigation.feature_gradient import LocalLinearFit, gauss_newton_step, slowness_weights
 from sfa_gym.recording.drivers import WaypointDriver
 
 __all__ = [
@@ -38,6 +40,11 @@ __all__ = [
 ]
 
 
+PROBE_TIME = 8.0
+"""seconds after which a probe of two legs that has not yet spanned the plane (a wall in the
+way) gives way to a curve; the two legs take about 4.5 s"""
+
+
 class Controller(Protocol):
     """Navigation controller: ``reset`` at the start of an episode, then ``act`` every step."""
 
@@ -48,38 +55,15 @@ class Controller(Protocol):
     def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]: ...
 
 
-def slowness_weights(sequence: ArrayLike, power: float = 2.0) -> NDArray[np.float64]:
-    """Feature weights ``delta_i ** -power`` from features ``(T, k)`` along a trajectory in time
-    order (a training run; no positions needed).
-
-    ``delta_i = mean((f_i[t+1] - f_i[t])^2) / var(f_i)`` is the slowness SFA minimises. The cost
-    ``sum_i w_i (f_i - g_i)^2`` weighs the standardised features by their slowness, so that slow
-    features, which vary smoothly over the whole arena, dominate and fast ones, whose many
-    extrema would create false minima, count less. SFA's outputs approximate the slowest
-    eigenfunctions of the Laplacian of the space the training run explored, with ``delta_i`` their
-    eigenvalues; ``power=1`` then gives the commute-time (diffusion) distance and ``power=2``
-    (default) the biharmonic distance (Lipman et al. 2010), which is smooth at the goal and keeps
-    its slope far from it (the README's navigation section compares the powers).
-    """
-    f = np.asarray(sequence, dtype=np.float64)
-    if f.ndim != 2 or len(f) < 3:
-        raise ValueError(f"sequence must be (T, k) features with T >= 3, got shape {f.shape}")
-    if not (isinstance(power, int | float) and power > 0):
-        raise ValueError(f"power must be a positive number, got {power!r}")
-    variance = np.var(f, axis=0)
-    delta = np.mean(np.diff(f, axis=0) ** 2, axis=0) / np.where(variance > 0, variance, 1.0)
-    if np.any(~(delta > 0)) or np.any(~(variance > 0)):
-        raise ValueError("a feature does not change along the sequence: its slowness is undefined")
-    return (1.0 / delta) ** power / variance
-
-
 @dataclass(frozen=True)
 class GradientSettings:
     """Settings of :class:`GradientController` (SI units)."""
 
-    memory: float = 0.5
-    """metres of travel over which old samples fade out of the local fit (exponential weight)"""
-    window: float = 1.5
+    memory: float = 0.3
+    """metres of travel over which old samples fade out of the local fit (exponential weight):
+    the features curve, and a tangent plane fitted over more path is biased (0.5 m: 3-6
+    points less success and 0.01-0.05 less SPL on four 200-episode sets)"""
+    window: float = 1.0
     """metres of travel after which samples are dropped"""
     prior: float = 0.02
     """strength (m^2) of the prior that the Jacobian is still the last one: directions the recent
@@ -114,6 +98,14 @@ class GradientSettings:
     """metres driven straight away from the walls first, when the range sensor sees one closer
     than ``influence`` during the first metre of an episode: along the walls the cost has a
     strip of false minima that traps a rover starting there (0 switches it off)"""
+    probe_leg: float = 0.1
+    """metres driven straight before the first fit, after which the rover turns on the spot by
+    ``probe_turn`` and drives on until its moves span the plane: an L of two short legs gives
+    the first fit its 2 cm of spread across for about 0.2 m of path, where a curve of the same
+    spread (``probe_leg=0``) costs about 0.4 m (turning on the spot adds no path)"""
+    probe_turn: float = 90.0
+    """degrees turned on the spot between the probe's legs, towards the side the range sensor
+    sees more room on"""
     stop_window: int = 3
     """steps in the running mean of the cost"""
     give_up: float = 6.0
@@ -140,85 +132,28 @@ class GradientSettings:
     two world seeds, obstacle and open worlds) 3 searches changed success by -4 to +5 points,
     within the spread that the weave's random phase alone gives: not yet a gain"""
 
-
-class LocalLinearFit:
-    """The local linear model of the features around the rover, ``f(p) = a + J (p - p_now)``,
-    fitted by weighted least squares to the features and odometry positions of its recent moves:
-    what the gradient controller (and a learning agent) can know about the feature gradient
-    without a map.
-
-    One sample per centimetre of travel is kept, over ``window`` metres; a sample fades with the
-    distance travelled since it (``memory``); a prior keeps the Jacobian's unexplored directions
-    at their last estimate (``prior``), since the rover mostly moves along one direction.
-
-    Args:
-        weights: ``(k,)`` feature weights of the cost (for the fit's noise floor).
-        memory, window, prior: as in :class:`GradientSettings`.
-    """
-
-    def __init__(self, weights: NDArray, memory: float, window: float, prior: float) -> None:
-        self.weights = weights
-        self.memory, self.window, self.prior = memory, window, prior
-        self._positions: list[NDArray] = []
-        self._features: list[NDArray] = []
-        self._odometer: list[float] = []  # distance travelled when each sample was taken
-        self._last_position: NDArray | None = None
-        self._jacobian: NDArray | None = None
-        self.travelled = 0.0
-        """metres travelled since the start (odometry)"""
-
-    def remember(self, position: NDArray, features: NDArray) -> None:
-        """Add the features ``(k,)`` seen at the odometry position ``(2,)``."""
-        if self._last_position is not None:
-            self.travelled += float(np.linalg.norm(position - self._last_position))
-        self._last_position = position
-        if self._positions and np.linalg.norm(position - self._positions[-1]) < 0.01:
-            # turning on the spot adds no information: keep only the latest features there
-            self._positions[-1], self._features[-1] = position, features
-            self._odometer[-1] = self.travelled
-        else:
-            self._positions.append(position)
-            self._features.append(features)
-            self._odometer.append(self.travelled)
-        while self.travelled - self._odometer[0] > self.window:
-            del self._positions[0], self._features[0], self._odometer[0]
-
-    def fit(self) -> tuple[NDArray, NDArray, float] | None:
-        """``(a, J, noise floor of the cost)`` of the model around the last position, or None
-        while the first moves do not span the plane."""
-        if len(self._positions) < 4:
-            return None
-        p = np.array(self._positions) - self._last_position
-        f = np.array(self._features)
-        sw = np.exp(-(self.travelled - np.array(self._odometer)) / self.memory)
-        design = np.column_stack([np.ones(len(p)), p])
-        normal = design.T @ (sw[:, None] * design)
-        rhs = design.T @ (sw[:, None] * f)
-        if self._jacobian is None:
-            spread = np.linalg.eigvalsh(np.cov(p.T, aweights=sw))
-            if spread[0] < 0.02**2:  # the moves span less than a couple of cm across
-                return None
-        else:
-            strength = self.prior * sw.sum()
-            normal[1:, 1:] += strength * np.eye(2)
-            rhs[1:] += strength * self._jacobian.T
-        coef = np.linalg.solve(normal, rhs)
-        a, self._jacobian = coef[0], coef[1:].T
-        residual = f - design @ coef
-        noise = float(np.sum(sw[:, None] * self.weights * residual**2) / max(sw.sum() - 3, 1))
-        return a, self._jacobian, noise
-
-
-def gauss_newton_step(
-    a: NDArray, jacobian: NDArray, goal: NDArray, weights: NDArray, damping: float
-) -> NDArray:
-    """The damped Gauss-Newton step ``-(J^T W J + mu I)^-1 J^T W (a - g)`` (m, in the odometry
-    frame) towards the goal features ``g`` under the local linear model, ``mu`` = ``damping``
-    times the trace of ``J^T W J``."""
-    metric = jacobian.T @ (weights[:, None] * jacobian)
-    gradient = jacobian.T @ (weights * (a - goal))
-    mu = damping * float(np.trace(metric)) + 1e-12
-    return -np.linalg.solve(metric + mu * np.eye(2), gradient)
+    def validate(self) -> None:
+        """Raise ValueError naming the first bad setting."""
+        for name in (
+            "memory", "window", "weave_wavelength", "speed", "slow_distance", "min_speed",
+            "accel", "turn_gain", "stop_distance", "give_up", "clearance", "influence",
+            "search_pitch", "search_start",
+        ):  # fmt: skip
+            check_positive(name, getattr(self, name))
+        for name in (
+            "prior", "damping", "weave_deg", "leave", "probe_leg", "probe_turn", "progress",
+            "repel", "search_after",
+        ):  # fmt: skip
+            check_finite(name, getattr(self, name), low=0.0)
+        if not 0 < self.search_found < 1:
+            raise ValueError(f"search_found must be in (0, 1), got {self.search_found!r}")
+        check_positive_int("stop_window", self.stop_window)
+        if check_int("searches", self.searches) < 0:
+            raise ValueError(f"searches must be >= 0, got {self.searches!r}")
+        if self.stop_curvature not in ("flattest", "mean"):
+            raise ValueError(
+                f"stop_curvature must be 'flattest' or 'mean', got {self.stop_curvature!r}"
+            )
 
 
 class GradientController:
@@ -236,7 +171,9 @@ class GradientController:
     along it, weaving around it (``weave_deg``) so that consecutive moves are not collinear, and
     pushed away from walls and obstacles its range sensor sees within ``influence``; a blocked
     direction is replaced by the nearest free one. Its speed follows the distance to the goal
-    estimated from the cost and the fit's curvature. Starting next to a wall (within
+    estimated from the cost and the fit's curvature. Before the first fit it probes with two
+    short straight legs and a turn on the spot between them (``probe_leg``): its moves span the
+    plane after about 0.26 m of path, a curve's after about 0.4 m. Starting next to a wall (within
     ``influence`` in the first metre), it first drives ``leave`` metres away from it: the cost
     has false minima along the walls. It stops when the running mean of the cost
     falls below the cost of being ``stop_distance`` from the goal in the direction where the cost
@@ -274,11 +211,7 @@ class GradientController:
         self.range_angles = np.asarray(range_angles, dtype=np.float64)
         self.v_max, self.w_max, self.dt = float(v_max), float(w_max), float(dt)
         self.settings = GradientSettings() if settings is None else settings
-        if self.settings.stop_curvature not in ("flattest", "mean"):
-            raise ValueError(
-                "settings.stop_curvature must be 'flattest' or 'mean', got "
-                f"{self.settings.stop_curvature!r}"
-            )
+        self.settings.validate()
         self.rng = np.random.default_rng(seed)
 
     @classmethod
@@ -302,7 +235,16 @@ class GradientController:
         self._search: tuple[float, float, float] | None = None
         self._searches = 0
         self._phase = float(self.rng.uniform(0, math.tau))
+        self._probe_yaw: float | None = None  # heading (odometry) of the probe's current leg
+        self._probe_turned = False
+        self._probe_t = 0.0  # seconds since the start when the probe began
+        # what the last step computed, for diagnostics: cost, distance (m), stop_cost and, while
+        # descending, the Gauss-Newton step's and the descent's directions and the weave (rad,
+        # odometry frame)
         self.estimate: dict[str, float] = {}
+        # what the last step did: "leave" (the wall), "probe" (no fit yet), "descend", "search"
+        # or "stop"
+        self.mode = "start"
 
     def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]:
         s = self.settings
@@ -320,6 +262,7 @@ class GradientController:
             self._best, self._best_at, self._best_t = cost, travelled, self._t
         if travelled - self._best_at > s.give_up:
             return self._stop()
+        self.mode = "descend"
 
         ranges = np.asarray(info.get("range", ()), dtype=np.float64)
         if self._leave is None and s.leave > 0 and travelled < 1.0 and ranges.size:
@@ -330,12 +273,13 @@ class GradientController:
             # a fixed direction, not the range readings of the moment: the sensor sees only
             # ahead, and turning away from a wall would look like having left it
             heading = self._unblocked(ranges, wrap_angle(self._leave[0] - yaw))
+            self.mode = "leave"
             return self._drive(s.speed * max(math.cos(heading), 0.0), s.turn_gain * heading)
 
         fit = self._local.fit()
         if fit is None:
-            # not enough spread yet: drive a curve to get it
-            return self._drive(s.min_speed * 1.5, self.w_max * 0.6)
+            self.mode = "probe"
+            return self._probe(travelled, yaw, ranges)
         a, jac, noise = fit
         metric = jac.T @ (self.weights[:, None] * jac)  # (2, 2) J^T W J
         step = gauss_newton_step(a, jac, g, self.weights, s.damping)
@@ -362,13 +306,16 @@ class GradientController:
         if self._search is not None:
             action = self._spiral(cost, travelled, ranges, yaw)
             if action is not None:
+                self.mode = "search"
                 return action
 
-        direction = step / (np.linalg.norm(step) + 1e-12) + s.repel * self._push(ranges, yaw)
         weave = math.radians(s.weave_deg) * math.sin(
             self._phase + math.tau * travelled / s.weave_wavelength
         )
-        heading = wrap_angle(math.atan2(direction[1], direction[0]) + weave - yaw)
+        direction = step / (np.linalg.norm(step) + 1e-12) + s.repel * self._push(ranges, yaw)
+        descent = math.atan2(direction[1], direction[0])
+        heading = wrap_angle(descent + weave - yaw)
+        self.estimate.update(step=math.atan2(step[1], step[0]), descent=descent, weave=weave)
         heading = self._unblocked(ranges, heading)
         scale = min(1.0, distance / s.slow_distance)
         speed = max(s.min_speed, s.speed * scale) * max(math.cos(heading), 0.0)
@@ -393,6 +340,30 @@ class GradientController:
         heading = self._unblocked(ranges, wrap_angle(math.atan2(direction[1], direction[0]) - yaw))
         speed *= max(math.cos(heading), 0.0)
         return self._drive(speed, turn * speed / radius + s.turn_gain * heading)
+
+    def _probe(self, travelled: float, yaw: float, ranges: NDArray) -> NDArray[np.float32]:
+        """The next move before the first fit: the moves do not span the plane yet."""
+        s = self.settings
+        if self._probe_yaw is None:
+            self._probe_yaw, self._probe_t = yaw, self._t
+        if s.probe_leg <= 0 or self._t - self._probe_t > PROBE_TIME:
+            # a curve: it spans the plane after about 0.4 m, wherever the walls are
+            return self._drive(s.min_speed * 1.5, self.w_max * 0.6)
+        if not self._probe_turned and travelled >= s.probe_leg:
+            # turn towards the side with more room; the ray at 0 counts for neither side
+            side = float(np.sum(np.sign(self.range_angles) * ranges)) if ranges.size else 0.0
+            self._probe_yaw = yaw + math.copysign(math.radians(s.probe_turn), side or 1.0)
+            self._probe_turned = True
+        # pushed away from walls as the descent is: a leg must not end against one
+        direction = np.array([math.cos(self._probe_yaw), math.sin(self._probe_yaw)])
+        direction += s.repel * self._push(ranges, yaw)
+        heading = wrap_angle(math.atan2(direction[1], direction[0]) - yaw)
+        heading = self._unblocked(ranges, heading)
+        if abs(heading) > 0.2:
+            # on the spot: a turn costs no path, and the legs stay straight
+            return self._drive(0.0, s.turn_gain * heading)
+        # 1.5 cm a step: the local fit keeps one sample per centimetre of travel
+        return self._drive(1.5 * s.min_speed * math.cos(heading), s.turn_gain * heading)
 
     def _push(self, ranges: NDArray, yaw: float) -> NDArray:
         """Away from the close range readings, in the odometry frame."""
@@ -423,6 +394,7 @@ class GradientController:
         return np.array([v, w, -1.0], dtype=np.float32)
 
     def _stop(self) -> NDArray[np.float32]:
+        self.mode = "stop"
         return np.array([0.0, 0.0, 1.0], dtype=np.float32)
 
 
