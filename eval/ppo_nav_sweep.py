@@ -4,7 +4,8 @@ Runs ``baselines/agents/ppo_nav.py`` for each (method, seed), ``workers`` proces
 (one torch thread each), on the feature fields that ``sfa-gym navigate`` wrote, and on rendered
 panoramas for ``pixels`` (CnnPolicy, with its own smaller budget), ``<method>+estimate`` (the
 agent also sees the goal estimate of a local linear fit, ``--estimate``), and ``oracle`` (the goal's
-position relative to the rover from the ground truth: the upper bound, small budget). Each run
+position relative to the rover from the ground truth: the upper bound, small budget); ``+ranges``
+adds the range sensor's readings (``--ranges``). Each run
 keeps its learning curve and checkpoint in ``out/<method>-<seed>/`` and resumes there when
 started again; finished runs are skipped. Then it plots success and SPL against training steps
 (mean over seeds, with the range) to ``out/learning_curves.png`` and writes the last
@@ -32,8 +33,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 AGENT = ROOT / "baselines" / "agents" / "ppo_nav.py"
 FEATURES = ["sfa", "fft_magnitude", "band_means", "pca", "raw_pixels"]
-# "<features>+estimate": the same memory plus the local linear fit's estimate of the goal
-METHODS = FEATURES + [f"{m}+estimate" for m in FEATURES] + ["pixels", "oracle"]
+# "<features>+estimate": the same memory plus the local linear fit's estimate of the goal;
+# "+ranges" adds the range sensor's readings
+EXTRAS = ["", "+estimate", "+ranges", "+estimate+ranges"]
+METHODS = [m + e for e in EXTRAS for m in FEATURES] + ["pixels", "oracle"]
+DEFAULT = [m + e for e in EXTRAS[:2] for m in FEATURES] + ["pixels", "oracle"]
 
 
 def read_curve(run: Path) -> list[dict[str, float]]:
@@ -62,9 +66,9 @@ def run_one(args: argparse.Namespace, method: str, seed: int) -> Path:
     if method == "oracle":  # ground truth; SFA's field only spares the rendering
         command += ["--oracle", "--field", str(args.nav / "field_sfa.npz")]
     elif method != "pixels":
-        features, _, estimate = method.partition("+")
+        features, *extras = method.split("+")
         command += ["--field", str(args.nav / f"field_{features}.npz")]
-        command += ["--estimate"] if estimate else []
+        command += [f"--{extra}" for extra in extras]  # estimate, ranges
     run.mkdir(parents=True, exist_ok=True)
     with open(run / "log.txt", "a") as log:
         done = subprocess.run(command, stdout=log, stderr=subprocess.STDOUT, check=False)
@@ -135,7 +139,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--nav", type=Path, default=Path("results/nav"), help="navigate's output")
     parser.add_argument("--out", type=Path, default=Path("results/ppo"), help="output folder")
-    parser.add_argument("--methods", nargs="+", default=METHODS, choices=METHODS)
+    parser.add_argument("--methods", nargs="+", default=DEFAULT, choices=METHODS)
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     parser.add_argument("--env", default="sfa_gym/OmniRoverNav-v0", help="navigation env id")
     parser.add_argument("--world-seed", type=int, default=0, help="the fields' world seed")

@@ -179,3 +179,18 @@ def test_the_goal_estimate_is_the_goals_displacement_where_features_are_linear(a
 
     with pytest.raises(ValueError, match="cost_weights"):
         agent.FeatureHistory(FeatureField(values, (-3, 3, -3, 3)), 2, 1, estimate=True)
+
+
+def test_the_range_readings_end_the_observation(agent, field_path, tmp_path):
+    env = agent.make_env(_small(agent, tmp_path, field=field_path, ranges=True))
+    obs, info = env.reset(seed=3)
+    k = FeatureField.load(field_path).n_features
+    rays = env.unwrapped.range_rays
+    assert rays > 0 and obs.shape == env.observation_space.shape
+    assert obs.shape == (2 * k + 7 * (k + 2) + rays,)
+    for _ in range(5):
+        obs, *_, info = env.step(np.array([1.0, 0.3], dtype=np.float32))
+    np.testing.assert_allclose(obs[-rays:], info["range"], rtol=1e-6)
+    # the rays see something: the arena's walls are within the sensor's range somewhere
+    assert np.all(obs[-rays:] > 0) and np.all(obs[-rays:] <= env.unwrapped.range_max)
+    env.close()

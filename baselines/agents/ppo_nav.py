@@ -54,7 +54,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from sfa_gym.navigation.controllers import GradientSettings, LocalLinearFit, gauss_newton_step
+from sfa_gym.navigation.controllers import GradientSettings
+from sfa_gym.navigation.feature_gradient import LocalLinearFit, gauss_newton_step
 
 CURVE = "learning_curve.csv"
 CHECKPOINT = "checkpoint.zip"
@@ -112,6 +113,9 @@ class Args:
     """feature agents also see where the local linear fit of their recent features against
     odometry puts the goal (the gradient controller's Gauss-Newton step, body frame, m):
     computed from the same senses, so still no ground truth"""
+    ranges: bool = False
+    """feature agents also see the range sensor's readings (m, the env's front rays): the sense
+    the gradient controller keeps off walls and obstacles with"""
     progress: bool = True
     """show a progress bar"""
 
@@ -137,17 +141,21 @@ class FeatureHistory:
     wheel odometry, in the current body frame (m); the current features; and the goal's minus
     the current ones. Differences, not values, so that a gradient is a few multiplications
     away. Features are standardised by their mean and spread over the field's nodes (no
-    labels), so that methods with different scales meet the same MLP. Length
-    ``2 k + (history - 1) (k + 2)``.
+    labels), so that methods with different scales meet the same MLP. Optionally the goal
+    estimate (3, ``estimate``) and the range readings (``rays``). Length
+    ``2 k + (history - 1) (k + 2) + 3 estimate + rays``.
     """
 
-    def __init__(self, field: Any, history: int, stride: int, estimate: bool = False) -> None:
+    def __init__(
+        self, field: Any, history: int, stride: int, estimate: bool = False, rays: int = 0
+    ) -> None:
         values = np.asarray(field.values, dtype=np.float64).reshape(-1, field.n_features)
         self.mean = values.mean(axis=0)
         self.scale = np.maximum(values.std(axis=0), 1e-12)
         self.history, self.stride = history, stride
         self.weights = cost_weights(field) if estimate else None
-        n = 2 * field.n_features + (history - 1) * (field.n_features + 2) + 3 * estimate
+        self.rays = rays
+        n = 2 * field.n_features + (history - 1) * (field.n_features + 2) + 3 * estimate + rays
         self.space = gym.spaces.Box(-np.inf, np.inf, (n,), np.float32)
         self._past: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=(history - 1) * stride + 1)
 
@@ -168,6 +176,8 @@ class FeatureHistory:
             parts += [now - features, turn @ ((x, y) - pose[:2])]
         if self.weights is not None:
             parts.append(self._goal_estimate(obs, (x, y), turn, new))
+        if self.rays:
+            parts.append(np.asarray(info["range"], dtype=np.float64))
         return np.concatenate(parts).astype(np.float32)
 
     def _goal_estimate(self, obs: dict[str, np.ndarray], xy: Any, turn: np.ndarray, new: bool):
@@ -191,7 +201,7 @@ class FeatureHistory:
 
 def cost_weights(field: Any) -> np.ndarray:
     """The gradient controller's feature weights, stored with a field by ``sfa-gym navigate``."""
-    weights = field.metadata.get("model_info", {}).get("cost_weights")
+    weights = (field.metadata.get("model_info") or {}).get("cost_weights")
     if weights is None or len(weights) != field.n_features:
         raise ValueError(
             "estimate needs the cost weights that `sfa-gym navigate` stores with a field "
@@ -256,7 +266,8 @@ def make_env(args: Args):
     elif args.field is not None:
         field = FeatureField.load(args.field)
         env = gym.make(args.env_id, feature_field=field, reward=args.reward, **kwargs)
-        memory = FeatureHistory(field, args.history, args.history_stride, args.estimate)
+        rays = env.unwrapped.range_rays if args.ranges else 0
+        memory = FeatureHistory(field, args.history, args.history_stride, args.estimate, rays)
         env = WithHistory(env, memory)
     else:
         env = gym.make(args.env_id, reward=args.reward, **kwargs)
