@@ -5,6 +5,7 @@ scores from the local and the Ray backend, and the command line end to end."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import multiprocessing
 import sys
@@ -16,6 +17,7 @@ import pytest
 from sfa_gym.leaderboard.cache import RunCache, RunRequest
 from sfa_gym.leaderboard.plugins import PluginError, load_method
 from sfa_gym.leaderboard.tracks import TrackError, list_tracks, load_track, track_from_dict
+from sfa_gym.navigation.controllers import GradientSettings
 from sfa_gym.recording.drivers import GridPositions
 from sfa_gym.sim.env import OmniRoverEnv
 
@@ -87,6 +89,23 @@ def test_navigation_episode_seeds_must_avoid_the_readme_episodes():
     data = json.loads((ROOT / "eval" / "tracks" / "nav_open.json").read_text())
     data["params"]["episode_seed"] = 950  # episodes 950..1049 reach the README's 1000-1099
     with pytest.raises(TrackError, match="params.episode_seed 1000 is a development seed"):
+        track_from_dict(data, "nav_open.json")
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda c: c.pop("memory"), "missing field 'params.controller.memory'"),
+        (lambda c: c.update(speed_limit=1.0), "unknown field 'params.controller.speed_limit'"),
+        (lambda c: c.update(memory=-1.0), "memory must be a positive number, got -1.0"),
+    ],
+)
+def test_navigation_tracks_fix_every_controller_setting(change, message):
+    data = json.loads((ROOT / "eval" / "tracks" / "nav_open.json").read_text())
+    track = track_from_dict(copy.deepcopy(data), "nav_open.json")
+    assert GradientSettings(**track.params["controller"]) == GradientSettings()
+    change(data["params"]["controller"])
+    with pytest.raises(TrackError, match=message):
         track_from_dict(data, "nav_open.json")
 
 
@@ -329,6 +348,7 @@ NAV_TINY = {
         "episodes": 2,
         "episode_seed": 50000,
         "weight_power": 2.0,
+        "controller": dataclasses.asdict(GradientSettings()),
     },
     "quick": {"world_seeds": 1},
 }

@@ -150,7 +150,11 @@ def navigation_scores(
 
     from sfa_gym.experiments.common import fit_method
     from sfa_gym.features import rotation_averaged_features
-    from sfa_gym.navigation.controllers import GradientController, slowness_weights
+    from sfa_gym.navigation.controllers import (
+        GradientController,
+        GradientSettings,
+        slowness_weights,
+    )
     from sfa_gym.navigation.evaluate import run_episodes, summarize
     from sfa_gym.rotation import Rotation
 
@@ -194,7 +198,8 @@ def navigation_scores(
         nav.close()
     env = gym.make(params["env_id"], world_seed=world_seed, feature_field=field)
     try:
-        controller = GradientController.for_env(env, weights)
+        settings = GradientSettings(**params["controller"])
+        controller = GradientController.for_env(env, weights, settings=settings)
         first = params["episode_seed"]
         seeds = range(first, first + params["episodes"])
         summary = summarize(run_episodes(env, controller, seeds, progress=False))

@@ -17,7 +17,10 @@ A track file (``eval/tracks/<name>.json``) is a JSON object::
                                                     # seeds and parameter overrides
 
 ``unseen_worlds`` adds ``"fit_world_seeds"`` (one per scoring world: the world the method is
-fitted on); ``navigation`` adds ``params.episode_seed`` (episodes ``episode_seed + i``);
+fitted on); ``navigation`` adds ``params.episode_seed`` (episodes ``episode_seed + i``) and
+``params.controller`` (every field of
+:class:`~sfa_gym.navigation.controllers.GradientSettings`, so that the library's defaults can
+change without changing a track's scores);
 ``outdoor`` (the outdoor world's tracks, :mod:`~sfa_gym.leaderboard.outdoor`) takes the sizes
 of :class:`~sfa_gym.experiments.outdoor.OutdoorExperiment` and the test ``conditions`` scored,
 checked at both sizes when the file is loaded.
@@ -107,6 +110,7 @@ REQUIRED_PARAMS: Mapping[str, tuple[str, ...]] = {
         "episodes",
         "episode_seed",
         "weight_power",
+        "controller",
     ),
 }
 """The ``params`` each evaluation needs (and accepts: others are refused as typos)."""
@@ -285,6 +289,8 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
     extra = sorted(set(params) - set(required))
     if extra:
         raise TrackError(f"{where}: unknown field 'params.{extra[0]}' for {evaluation}")
+    if evaluation == "navigation":
+        _check_controller(where, params["controller"])
     if "episode_seed" in params:
         first = _int(where, "params.episode_seed", params["episode_seed"])
         episodes = _int(where, "params.episodes", params["episodes"])
@@ -317,6 +323,25 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
         fit_world_seeds=fit_world_seeds,
         path=path,
     )
+
+
+def _check_controller(where: str, controller: Any) -> None:
+    """``params.controller`` must give every setting of the gradient controller, valid: a change
+    of the library's defaults must not change a track's scores."""
+    from sfa_gym.navigation.controllers import GradientSettings
+
+    names = {f.name for f in dataclasses.fields(GradientSettings)}
+    if not isinstance(controller, dict):
+        raise TrackError(f"{where}: params.controller must be an object, got {controller!r}")
+    missing, unknown = sorted(names - set(controller)), sorted(set(controller) - names)
+    if missing:
+        raise TrackError(f"{where}: missing field 'params.controller.{missing[0]}'")
+    if unknown:
+        raise TrackError(f"{where}: unknown field 'params.controller.{unknown[0]}'")
+    try:
+        GradientSettings(**controller).validate()
+    except (TypeError, ValueError) as err:
+        raise TrackError(f"{where}: params.controller: {err}") from None
 
 
 def _check_outdoor(
