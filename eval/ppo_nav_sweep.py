@@ -69,6 +69,7 @@ def run_one(args: argparse.Namespace, method: str, seed: int) -> Path:
         features, *extras = method.split("+")
         command += ["--field", str(args.nav / f"field_{features}.npz")]
         command += [f"--{extra}" for extra in extras]  # estimate, ranges
+    command += ["--anneal-lr"] if args.anneal_lr else []
     run.mkdir(parents=True, exist_ok=True)
     with open(run / "log.txt", "a") as log:
         done = subprocess.run(command, stdout=log, stderr=subprocess.STDOUT, check=False)
@@ -149,6 +150,7 @@ def main() -> None:
     parser.add_argument("--eval-every", type=int, default=100_000)
     parser.add_argument("--eval-episodes", type=int, default=50)
     parser.add_argument("--workers", type=int, default=2, help="runs at a time")
+    parser.add_argument("--anneal-lr", action="store_true", help="the agents' --anneal-lr")
     parser.add_argument("--plot-only", action="store_true", help="plot what the runs hold")
     args = parser.parse_args()
 

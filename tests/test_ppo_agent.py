@@ -194,3 +194,19 @@ def test_the_range_readings_end_the_observation(agent, field_path, tmp_path):
     # the rays see something: the arena's walls are within the sensor's range somewhere
     assert np.all(obs[-rays:] > 0) and np.all(obs[-rays:] <= env.unwrapped.range_max)
     env.close()
+
+
+def test_anneal_lr_decays_the_learning_rate_over_the_budget(agent, field_path, tmp_path):
+    from stable_baselines3 import PPO
+
+    for anneal in (False, True):
+        args = _small(agent, tmp_path / str(anneal), field=field_path, anneal_lr=anneal)
+        agent.train(args)
+        model = PPO.load(args.out / "model.zip", device="cpu")  # our own file
+        rate = model.policy.optimizer.param_groups[0]["lr"]
+        if anneal:
+            # SB3 sets the rate after each rollout: the last one ends the budget
+            assert rate == 0.0
+            assert model.lr_schedule(0.5) == pytest.approx(args.learning_rate / 2)
+        else:
+            assert rate == pytest.approx(args.learning_rate)

@@ -91,6 +91,9 @@ class Args:
     """PPO rollout length per env"""
     learning_rate: float = 2.5e-4
     """PPO learning rate"""
+    anneal_lr: bool = False
+    """decay the learning rate linearly to 0 over total_timesteps (CleanRL's PPO does): the
+    late updates then refine the policy instead of moving it about"""
     batch_size: int = 128
     """PPO minibatch size"""
     n_epochs: int = 10
@@ -366,7 +369,7 @@ def train(args: Args) -> list[dict[str, float]]:
             n_steps=args.n_steps,
             batch_size=args.batch_size,
             n_epochs=args.n_epochs,
-            learning_rate=args.learning_rate,
+            learning_rate=_schedule(args.learning_rate) if args.anneal_lr else args.learning_rate,
             gamma=0.99,
             gae_lambda=0.95,
             ent_coef=args.ent_coef,
@@ -419,6 +422,12 @@ def train(args: Args) -> list[dict[str, float]]:
         title="oracle" if args.oracle else str(args.field or "pixels"),
     )
     return curve
+
+
+def _schedule(rate: float):
+    """SB3 learning-rate schedule: ``rate`` times the fraction of the budget still to go (SB3
+    counts it over the whole budget, also when a run resumes)."""
+    return lambda remaining: rate * remaining
 
 
 def plot_curve(curve: list[dict[str, float]], path: Path, title: str) -> None:
