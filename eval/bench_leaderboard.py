@@ -21,6 +21,10 @@ Two measurements in one process:
 The machine's load average is recorded before and after each phase: on a shared machine the
 figures are noisy. Writes ``eval/results/leaderboard_bench.json`` (``--json``).
 
+3. **Full size** (``--full-size METHOD``, instead of 1 and 2): one full-size task per track
+   (its first world seed) from a cold cache, timed; the full board's time per track is
+   estimated as that times the track's world seeds (each world seed renders its own runs).
+
 Usage (from the repository root; ~15-20 min on 2 cores, plus the outdoor tracks)::
 
     .venv/bin/python eval/bench_leaderboard.py
@@ -28,6 +32,8 @@ Usage (from the repository root; ~15-20 min on 2 cores, plus the outdoor tracks)
     .venv/bin/python eval/bench_leaderboard.py --skip-ray --tracks outdoor_paper \
         outdoor_appearance --board-method band_means fft_magnitude eval/methods/sfa.py \
         --json eval/results/leaderboard_outdoor_bench.json
+    .venv/bin/python eval/bench_leaderboard.py --full-size band_means \
+        --json eval/results/leaderboard_full_bench.json
 """
 
 from __future__ import annotations
@@ -110,6 +116,44 @@ def quick_board(tracks: list[Any], methods: list[str], results: Path, cache: Run
     return rows
 
 
+def full_size_tasks(tracks: list[Any], method: str, cache: RunCache) -> list[dict[str, Any]]:
+    """One full-size task per track (its first world seed), local backend, in the order of
+    ``tracks``: its wall time, renders included for the first task that needs them, and the
+    board's time on the track estimated as that times the track's world seeds (each world seed
+    renders its own runs, so the first task's cost is every task's)."""
+    rows = []
+    for track in tracks:
+        seeds, _ = track.sized(False)
+        task = Task(str(track.path), str(method_file(method)), {}, seeds[0], False, str(cache.root))
+        before, load = len(cache.renders()), _load()
+        started = time.perf_counter()
+        (output,) = run_tasks([task])
+        seconds = time.perf_counter() - started
+        renders, render_s = _render_seconds(cache, before)
+        rows.append(
+            {
+                "track": track.name,
+                "method": Path(method).stem,
+                "world_seed": seeds[0],
+                "seconds": round(seconds, 2),
+                "renders": renders,
+                "render_seconds": render_s,
+                "world_seeds": len(seeds),
+                "estimated_track_seconds": round(seconds * len(seeds), 1),
+                "score": output["scores"]["score"],
+                "load_before": load,
+                "load_after": _load(),
+            }
+        )
+        print(
+            f"{track.name:18s} full size, world seed {seeds[0]}: {seconds:7.1f} s ({renders} "
+            f"renders, {render_s:.1f} s); x {len(seeds)} world seeds = "
+            f"{seconds * len(seeds) / 60:.1f} min  score {output['scores']['score']:.3f}",
+            flush=True,
+        )
+    return rows
+
+
 def ray_speedup(tasks: list[Task], workers: tuple[int, ...]) -> dict[str, Any]:
     """Run ``tasks`` on a local Ray with each number of CPUs in ``workers``."""
     import ray
@@ -159,6 +203,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip-board", action="store_true", help="only the Ray speed-up")
     parser.add_argument("--skip-ray", action="store_true", help="only the quick board")
     parser.add_argument("--tracks", nargs="+", default=None, help="track names (default: all)")
+    parser.add_argument(
+        "--full-size",
+        metavar="METHOD",
+        help="instead of the quick board and Ray: one full-size task per track with METHOD, "
+        "timed, and the full board's time per track estimated from it",
+    )
     args = parser.parse_args(argv)
 
     cache_root = args.cache or Path(tempfile.mkdtemp(prefix="sfa-gym-bench-cache-"))
@@ -179,6 +229,17 @@ def main(argv: list[str] | None = None) -> int:
         "cache_renders_at_start": len(cache.renders()),
     }
     started = time.perf_counter()
+    if args.full_size:
+        print(f"full size, one world seed per track, {args.full_size}, cache {cache_root}")
+        rows = full_size_tasks(tracks, args.full_size, cache)
+        report["full_size"] = {
+            "method": Path(args.full_size).stem,
+            "backend": "local",
+            "cache": "cold" if report["cache_renders_at_start"] == 0 else "as found",
+            "tracks": rows,
+            "estimated_board_seconds": round(sum(r["estimated_track_seconds"] for r in rows), 1),
+        }
+        return _write(report, started, args.json)
     if not args.skip_board:
         print(f"quick board, {args.board_method}, local backend, cache {cache_root}", flush=True)
         board = quick_board(tracks, args.board_method, args.results, cache)
