@@ -15,7 +15,7 @@ Usage (from the repository root)::
 
     sfa-gym navigate --out results/nav --baselines baselines/
     .venv/bin/python eval/ppo_nav_sweep.py --nav results/nav --out results/ppo
-    .venv/bin/python eval/ppo_nav_sweep.py --out results/ppo --plot-only
+    .venv/bin/python eval/ppo_nav_sweep.py --out results/ppo --plot-only --at 500000
 """
 
 from __future__ import annotations
@@ -88,11 +88,15 @@ def furthest_curves(out: Path, method: str) -> list[list[dict[str, float]]]:
     return [c for c in curves if c[-1]["steps"] == furthest]
 
 
-def summarize(out: Path, methods: list[str]) -> dict[str, dict[str, float]]:
-    """Last evaluation of each run, and mean and range over the seeds of each method."""
+def summarize(out: Path, methods: list[str], at: int | None = None) -> dict[str, dict[str, float]]:
+    """Last evaluation of each run (or its last one at or before ``at`` steps, to compare
+    methods at equal steps), and mean and range over the seeds of each method."""
     summary: dict[str, dict[str, float]] = {}
     for method in methods:
-        last = [c[-1] for c in furthest_curves(out, method)]
+        curves = furthest_curves(out, method)
+        if at is not None:
+            curves = [[row for row in c if row["steps"] <= at] for c in curves]
+        last = [c[-1] for c in curves if c]
         if not last:
             continue
         success = np.array([c["success"] for c in last])
@@ -152,6 +156,7 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2, help="runs at a time")
     parser.add_argument("--anneal-lr", action="store_true", help="the agents' --anneal-lr")
     parser.add_argument("--plot-only", action="store_true", help="plot what the runs hold")
+    parser.add_argument("--at", type=int, help="summarize the evaluations at or before this step")
     args = parser.parse_args()
 
     jobs = [(m, s) for s in args.seeds for m in args.methods]
@@ -163,12 +168,13 @@ def main() -> None:
         with ThreadPoolExecutor(args.workers) as pool:
             list(pool.map(lambda job: run_one(args, *job), jobs))
     plot(args.out, args.methods)
-    summary = summarize(args.out, args.methods)
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=1))
-    print(f"{'method':<15}{'seeds':>6}{'steps':>10}{'success':>9}{'range':>13}{'SPL':>7}")
+    summary = summarize(args.out, args.methods, args.at)
+    name = "summary.json" if args.at is None else f"summary_at_{args.at}.json"
+    (args.out / name).write_text(json.dumps(summary, indent=1))
+    print(f"{'method':<30}{'seeds':>6}{'steps':>10}{'success':>9}{'range':>13}{'SPL':>7}")
     for method, s in summary.items():
         print(
-            f"{method:<15}{s['seeds']:>6}{s['steps']:>10}{s['success']:>9.2f}"
+            f"{method:<30}{s['seeds']:>6}{s['steps']:>10.0f}{s['success']:>9.2f}"
             f"{s['success_min']:>7.2f}-{s['success_max']:.2f}{s['spl']:>7.2f}"
         )
 
