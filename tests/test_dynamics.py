@@ -245,6 +245,19 @@ def test_auto_exposure_brings_a_darkened_image_back_with_a_lag():
     assert 50 < first < 60 and last == pytest.approx(100, abs=1)
 
 
+def test_the_exposure_meter_ignores_pixels_black_in_every_channel():
+    # a mirror's image: a lit disc (one channel dark in places) inside a black frame
+    image = np.zeros((20, 20, 3), np.uint8)
+    image[5:15, 5:15] = (80, 0, 40)  # lit: one channel is not zero
+    sensor = Sensor(SensorSpec(noise=False, target=100.0))
+    sensor.reset(image)
+    assert sensor.gain == pytest.approx(100.0 / 40.0)  # mean of the lit pixels' channels: 40
+    sensor.reset(image[..., 0])  # a grey image: the zeros are the unlit pixels
+    assert sensor.gain == pytest.approx(100.0 / 80.0)
+    sensor.reset(np.zeros((4, 4, 3), np.uint8))  # nothing lit: the brightest gain allowed
+    assert sensor.gain == pytest.approx(SensorSpec().gain_range[1])
+
+
 def test_the_registered_outdoor_env_sees_through_the_mirror_with_a_clock():
     env = gym.make("sfa_gym/OmniRoverOutdoor-v0")
     obs, info = env.reset(seed=0)
