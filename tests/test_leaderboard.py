@@ -8,6 +8,8 @@ import copy
 import dataclasses
 import json
 import multiprocessing
+import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -219,6 +221,28 @@ def test_a_truncated_entry_is_detected_and_rendered_again(tmp_path):
     assert chunk.read_bytes() == data
     # what determines the pixels is in the key: another heading seed is another entry
     assert cache.path(_request(seed=7002)) != cache.path(_request())
+
+
+def test_a_fresh_process_whose_first_step_is_the_cache_renders_headless(tmp_path):
+    # the key hashes the MuJoCo version: reading it must not import mujoco before the GL
+    # backend is chosen, or MuJoCo stays on GLFW and a headless render fails
+    code = (
+        "import sys\n"
+        "from sfa_gym.leaderboard.cache import RunCache, RunRequest\n"
+        "from sfa_gym.recording.drivers import GridPositions\n"
+        "request = RunRequest(world='paper_sim', world_seed=100, panorama=(8, 24),\n"
+        "    driver=GridPositions(n=2, seed=7001, order='raster'), seed=7001)\n"
+        f"cache = RunCache({str(tmp_path)!r})\n"
+        "cache.path(request)\n"
+        "assert 'mujoco' not in sys.modules, 'the cache key imported mujoco'\n"
+        "print(cache.get(request).panoramas.shape)\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=False
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().endswith("(4, 8, 24, 3)")
 
 
 def test_the_key_follows_the_code_that_makes_the_pixels(tmp_path, monkeypatch):

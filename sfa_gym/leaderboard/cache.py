@@ -30,6 +30,7 @@ import dataclasses
 import fcntl
 import functools
 import hashlib
+import importlib.metadata
 import inspect
 import json
 import math
@@ -76,10 +77,10 @@ def rendering_code_sha256(root: str | os.PathLike[str] | None = None) -> str:
     the MuJoCo version: what, besides the request, makes the pixels."""
     if root is None:
         return _installed_code_sha256()
-    import mujoco
-
     root = Path(root)
-    digest = hashlib.sha256(f"mujoco {mujoco.__version__}\n".encode())
+    # the version from the distribution's metadata: importing mujoco here, before the GL
+    # backend is chosen (sim.gl.configure), would fix MuJoCo on GLFW for the whole process
+    digest = hashlib.sha256(f"mujoco {importlib.metadata.version('mujoco')}\n".encode())
     for package in _RENDERING_PACKAGES:
         sources = sorted((root / package).rglob("*.py"))
         if not sources:
