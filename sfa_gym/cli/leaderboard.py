@@ -13,14 +13,14 @@ import tyro
 __all__ = ["Leaderboard", "LeaderboardRun", "LeaderboardTable"]
 
 
-def _parse_args(items: tuple[str, ...]) -> dict[str, Any]:
+def _parse_args(items: tuple[str, ...], option: str = "--method-args") -> dict[str, Any]:
     """``("n_bands=4", "regressor=map")`` -> ``{"n_bands": 4, "regressor": "map"}`` (values
     read as JSON where they parse, else kept as text)."""
     out: dict[str, Any] = {}
     for item in items:
         name, sep, value = item.partition("=")
         if not sep or not name:
-            raise ValueError(f"--method-args takes NAME=VALUE items, got {item!r}")
+            raise ValueError(f"{option} takes NAME=VALUE items, got {item!r}")
         try:
             out[name] = json.loads(value)
         except json.JSONDecodeError:
@@ -47,6 +47,12 @@ class LeaderboardRun:
     """ray, local Ray only: CPUs it may use (default: all)"""
     method_args: tuple[str, ...] = ()
     """arguments of the methods' Args, NAME=VALUE (e.g. n_bands=4), applied to every method"""
+    controller: Path | None = None
+    """navigation tracks only: a controller plug-in file (e.g.
+    baselines/controllers/run_and_tumble.py) that drives the rover instead of the tracks'
+    gradient controller; with --track all, the navigation tracks"""
+    controller_args: tuple[str, ...] = ()
+    """arguments of the controller's Args, NAME=VALUE"""
     results: Path = Path("results/leaderboard")
     """results folder"""
     tracks: Path | None = None
@@ -61,7 +67,9 @@ class LeaderboardRun:
 
         available = {t.name: t for t in list_tracks(self.tracks)}
         if "all" in self.track:
-            chosen = list(available.values())
+            chosen = [
+                t for t in available.values() if self.controller is None or t.kind == "navigation"
+            ]
         else:
             unknown = [name for name in self.track if name not in available]
             if unknown:
@@ -80,6 +88,9 @@ class LeaderboardRun:
             address=self.address,
             num_cpus=self.num_cpus,
             cache_dir=self.cache,
+            controller=None
+            if self.controller is None
+            else (self.controller, _parse_args(self.controller_args, "--controller-args")),
         )
         for path in written:
             score = json.loads(path.read_text())["score"]

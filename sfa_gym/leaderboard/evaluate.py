@@ -45,6 +45,9 @@ class Task:
         world_seed: the scoring world seed (one of the track's).
         quick: evaluate at the track's quick size.
         cache_dir: the render cache folder (None: the default one).
+        controller_path: navigation tracks: a controller plug-in file that drives the rover
+            instead of the track's gradient controller (None: the track's).
+        controller_args: keyword arguments of the controller's ``Args`` (JSON types).
     """
 
     track_path: str
@@ -53,6 +56,8 @@ class Task:
     world_seed: int = 0
     quick: bool = False
     cache_dir: str | None = None
+    controller_path: str | None = None
+    controller_args: Mapping[str, Any] = field(default_factory=dict)
 
 
 def _mean_percent(result: Any) -> float:
@@ -219,6 +224,10 @@ def run_task(task: Task) -> dict[str, Any]:
             f"world seed {task.world_seed} is not a scoring seed of track {track.name!r} "
             f"({'quick' if task.quick else 'full'} size: {list(seeds)})"
         )
+    if task.controller_path is not None and track.evaluation != "navigation":
+        raise ValueError(
+            f"a controller drives the rover on navigation tracks only, not on {track.name!r}"
+        )
     method = load_method(task.method_path, task.method_args)
     cache = RunCache(task.cache_dir)
     # One BLAS thread wherever the task runs: multi-threaded reductions round differently, and
@@ -234,7 +243,10 @@ def run_task(task: Task) -> dict[str, Any]:
         elif track.evaluation == "navigation":
             from sfa_gym.leaderboard.navigation import navigation_scores
 
-            scores = navigation_scores(track, params, task.world_seed, method, cache)
+            scores = navigation_scores(
+                track, params, task.world_seed, method, cache,
+                controller=(task.controller_path, task.controller_args),
+            )  # fmt: skip
         else:
             scores = _grid_scores(track, params, task.world_seed, method, cache)
     return {

@@ -142,10 +142,19 @@ def cached_feature_field(
 
 
 def navigation_scores(
-    track: Any, params: Mapping[str, Any], world_seed: int, method: Any, cache: RunCache
+    track: Any,
+    params: Mapping[str, Any],
+    world_seed: int,
+    method: Any,
+    cache: RunCache,
+    controller: tuple[str | None, Mapping[str, Any]] = (None, {}),
 ) -> dict[str, Any]:
-    """Success rate and SPL of the gradient controller on ``method``'s features in the track's
-    world ``world_seed`` over episodes ``episode_seed .. episode_seed + episodes - 1``."""
+    """Success rate and SPL of a controller on ``method``'s features in the track's world
+    ``world_seed`` over episodes ``episode_seed .. episode_seed + episodes - 1``.
+
+    ``controller``: a controller plug-in file and its arguments
+    (:mod:`sfa_gym.navigation.plugins`), or ``(None, {})`` for the track's gradient controller
+    (``params.controller``). Either sees only the rover's own sensors in ``info``."""
     import gymnasium as gym
 
     from sfa_gym.experiments.common import fit_method
@@ -156,6 +165,7 @@ def navigation_scores(
         slowness_weights,
     )
     from sfa_gym.navigation.evaluate import run_episodes, summarize
+    from sfa_gym.navigation.plugins import Rover, SensorsOnly, load_controller_file
     from sfa_gym.rotation import Rotation
 
     panorama = (int(params["panorama"][0]), int(params["panorama"][1]))
@@ -198,11 +208,15 @@ def navigation_scores(
         nav.close()
     env = gym.make(params["env_id"], world_seed=world_seed, feature_field=field)
     try:
-        settings = GradientSettings(**params["controller"])
-        controller = GradientController.for_env(env, weights, settings=settings)
+        path, args = controller
+        if path is None:
+            settings = GradientSettings(**params["controller"])
+            driver = SensorsOnly(GradientController.for_env(env, weights, settings=settings))
+        else:
+            driver = load_controller_file(path)(Rover.of(env), weights, args)
         first = params["episode_seed"]
         seeds = range(first, first + params["episodes"])
-        summary = summarize(run_episodes(env, controller, seeds, progress=False))
+        summary = summarize(run_episodes(env, driver, seeds, progress=False))
     finally:
         env.close()
     every, interior = summary["all"], summary["interior"]

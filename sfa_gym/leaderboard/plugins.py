@@ -12,14 +12,19 @@ and nothing is added to ``sys.path``.
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from sfa_gym.localization.methods import FeatureMethod, MethodFactory, PluginError, load_method_file
+from sfa_gym.localization.methods import (
+    FeatureMethod,
+    MethodFactory,
+    PluginError,
+    load_method_file,
+    plugin_arguments,
+)
 
 __all__ = ["PluginError", "file_sha256", "load_factory", "load_method", "method_arguments"]
 
@@ -50,17 +55,7 @@ def method_arguments(factory: MethodFactory, args: Mapping[str, Any]) -> dict[st
         ValueError: a key of ``args`` is not a field of ``Args``, or ``Args`` refuses a value.
     """
     assert factory.args_type is not None
-    names = [f.name for f in dataclasses.fields(factory.args_type)]
-    unknown = sorted(set(args) - set(names))
-    if unknown:
-        raise ValueError(
-            f"{factory.path}: unknown argument {unknown[0]!r}; its Args fields are {names}"
-        )
-    try:
-        filled = factory.args_type(**dict(args))
-    except (TypeError, ValueError) as error:
-        raise ValueError(f"{factory.path}: bad arguments {dict(args)!r}: {error}") from None
-    return {name: getattr(filled, name) for name in names}
+    return plugin_arguments(factory.path, factory.args_type, args)
 
 
 def load_method(

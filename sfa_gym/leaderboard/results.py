@@ -99,7 +99,7 @@ def method_label(name: str, args: dict[str, Any], defaults: dict[str, Any]) -> s
 
 def result_path(results: Path, track: str, label: str, quick: bool) -> Path:
     """Where the result of ``label`` on ``track`` is written."""
-    safe = "".join(c if c.isalnum() or c in "-_=,.[]" else "_" for c in label)
+    safe = "".join(c if c.isalnum() or c in "-_=,.[]+" else "_" for c in label)
     return results / track / f"{safe}{'.quick' if quick else ''}.json"
 
 

@@ -30,6 +30,7 @@ def run_sweep(
     address: str | None = None,
     num_cpus: int | None = None,
     cache_dir: str | os.PathLike[str] | None = None,
+    controller: tuple[str | os.PathLike[str], Mapping[str, Any]] | None = None,
     verbose: bool = True,
 ) -> list[Path]:
     """Score every method on every track; write one result file per (track, method).
@@ -41,29 +42,36 @@ def run_sweep(
         quick: the tracks' quick size.
         backend, address, num_cpus: see :func:`~sfa_gym.leaderboard.backends.run_tasks`.
         cache_dir: the render cache (None: the default one); must be reachable by every worker.
+        controller: a controller plug-in file with its arguments, driving the rover on the
+            navigation tracks instead of the tracks' gradient controller; every track must then
+            be a navigation track. Results are labelled ``<method>+<controller>``.
         verbose: a line on stderr per finished task.
 
     Returns:
         The result files written, in the order of ``tracks`` x ``methods``.
 
     Raises:
-        PluginError, ValueError: a method file or its arguments are refused (before any task).
+        PluginError, ValueError: a method or controller file or its arguments are refused, or
+            a controller is given for a track that is not a navigation track (before any task).
     """
     started = time.perf_counter()
+    driver = None if controller is None else _describe_controller(tracks, *controller)
     described = []
     for path, args in methods:
         factory = load_factory(path)
         filled = method_arguments(factory, args)
         defaults = {f.name: f.default for f in dataclasses.fields(factory.args_type)}
+        label = method_label(factory.name, filled, defaults)
         described.append(
             {
                 "name": factory.name,
-                "label": method_label(factory.name, filled, defaults),
+                "label": label if driver is None else f"{label}+{driver['label']}",
                 "path": str(factory.path),
                 "sha256": file_sha256(factory.path),
                 "args": {k: args[k] for k in args},
                 "all_args": filled,
             }
+            | ({} if driver is None else {"controller": driver})
         )
     cache = None if cache_dir is None else str(Path(cache_dir).resolve())
     tasks, owners = [], []
@@ -81,6 +89,8 @@ def run_sweep(
                         seed,
                         quick,
                         cache,
+                        None if driver is None else driver["path"],
+                        {} if driver is None else dict(driver["args"]),
                     )
                 )
                 owners.append((t, m))
@@ -113,3 +123,28 @@ def run_sweep(
             write_result(path, result)
             written.append(path)
     return written
+
+
+def _describe_controller(
+    tracks: Sequence[Track], path: str | os.PathLike[str], args: Mapping[str, Any]
+) -> dict[str, Any]:
+    """The provenance of a controller plug-in (checked, with its arguments), for the results."""
+    from sfa_gym.navigation.plugins import load_controller_file
+
+    others = [t.name for t in tracks if t.kind != "navigation"]
+    if others:
+        raise ValueError(
+            f"a controller drives the rover on navigation tracks only; {others} are not "
+            "navigation tracks (choose the nav_* tracks)"
+        )
+    factory = load_controller_file(path)
+    filled = factory.arguments(args)
+    defaults = {f.name: f.default for f in dataclasses.fields(factory.args_type)}
+    return {
+        "name": factory.name,
+        "label": method_label(factory.name, filled, defaults),
+        "path": str(factory.path),
+        "sha256": file_sha256(factory.path),
+        "args": {k: args[k] for k in args},
+        "all_args": filled,
+    }

@@ -30,7 +30,7 @@ import dataclasses
 import hashlib
 import importlib.util
 import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -46,10 +46,14 @@ __all__ = [
     "FeatureMethod",
     "MethodFactory",
     "PluginError",
+    "check_made",
     "check_views",
+    "import_plugin_file",
     "iter_chunks",
     "list_method_files",
     "load_method_file",
+    "plugin_arguments",
+    "plugin_path",
 ]
 
 
@@ -105,14 +109,7 @@ class MethodFactory:
 
     def __call__(self, **kwargs: Any) -> FeatureMethod:
         method = self.make(**kwargs)
-        wrong = [a for a in ("fit", "transform") if not callable(getattr(method, a, None))]
-        if not isinstance(getattr(method, "name", None), str):
-            wrong.insert(0, "name")
-        if wrong:
-            raise PluginError(
-                f"{self.path} made {method!r}, which is not a feature method: it needs "
-                f"name: str, fit(views) and transform(views) (missing or wrong: {wrong})"
-            )
+        check_made(self.path, method, ("fit", "transform"), "a feature method", "fit(views)")
         return method
 
     def arguments(self) -> list[Argument]:
@@ -150,7 +147,40 @@ class MethodFactory:
         return self(**{f.name: getattr(args, f.name) for f in dataclasses.fields(args)})
 
 
-def _import_file(path: Path) -> ModuleType:
+def check_made(path: Path, made: Any, methods: tuple[str, ...], kind: str, usage: str) -> None:
+    """Refuse what a plug-in file made unless it has ``name: str`` and callable ``methods``.
+
+    Raises:
+        PluginError: naming the file, ``kind`` (e.g. ``"a feature method"``), an example call
+            ``usage`` and what is missing or wrong.
+    """
+    wrong = [a for a in methods if not callable(getattr(made, a, None))]
+    if not isinstance(getattr(made, "name", None), str):
+        wrong.insert(0, "name")
+    if wrong:
+        raise PluginError(
+            f"{path} made {made!r}, which is not {kind}: it needs name: str and "
+            f"{', '.join(methods)} (e.g. {usage}) (missing or wrong: {wrong})"
+        )
+
+
+def plugin_path(path: str | Path, kind: str) -> Path:
+    """``path`` resolved, checked to be an existing ``.py`` file (``kind`` names it in errors).
+
+    Raises:
+        FileNotFoundError: no such file. ValueError: not a ``.py`` file.
+    """
+    path = Path(path).resolve()
+    if not path.is_file():
+        raise FileNotFoundError(f"no {kind} file at {path}")
+    if path.suffix != ".py":
+        raise ValueError(f"a {kind} file must be a .py file, got {path}")
+    return path
+
+
+def import_plugin_file(path: Path) -> ModuleType:
+    """Execute the file at ``path`` as a module of its own (not its folder as a package, no
+    ``sys.path`` change); a failure to import is a :class:`PluginError` naming the file."""
     # A name unique per file keeps two plug-ins with the same stem (or a plug-in named like an
     # installed module) from replacing each other in sys.modules.
     digest = hashlib.sha1(str(path).encode()).hexdigest()[:10]
@@ -184,12 +214,8 @@ def load_method_file(path: str | Path) -> MethodFactory:
         ValueError: not a ``.py`` file.
         PluginError: the file fails to import or does not follow the protocol.
     """
-    path = Path(path).resolve()
-    if not path.is_file():
-        raise FileNotFoundError(f"no feature-method file at {path}")
-    if path.suffix != ".py":
-        raise ValueError(f"a feature-method file must be a .py file, got {path}")
-    module = _import_file(path)
+    path = plugin_path(path, "feature-method")
+    module = import_plugin_file(path)
     make = getattr(module, "make_method", None) or getattr(module, "METHOD", None)
     if make is None or not callable(make):
         raise PluginError(
@@ -203,6 +229,24 @@ def load_method_file(path: str | Path) -> MethodFactory:
             f"{path}: Args must be a dataclass of the method's arguments, got {args_type!r}"
         )
     return MethodFactory(name=path.stem, path=path, make=make, args_type=args_type)
+
+
+def plugin_arguments(path: Path, args_type: type, args: Mapping[str, Any]) -> dict[str, Any]:
+    """Every field of a plug-in's ``Args`` dataclass ``args_type`` with ``args`` applied, as a
+    dict (the defaults filled in: what a result records); ``path`` names the file in errors.
+
+    Raises:
+        ValueError: a key of ``args`` is not a field of ``Args``, or ``Args`` refuses a value.
+    """
+    names = [f.name for f in dataclasses.fields(args_type)]
+    unknown = sorted(set(args) - set(names))
+    if unknown:
+        raise ValueError(f"{path}: unknown argument {unknown[0]!r}; its Args fields are {names}")
+    try:
+        filled = args_type(**dict(args))
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{path}: bad arguments {dict(args)!r}: {error}") from None
+    return {name: getattr(filled, name) for name in names}
 
 
 def list_method_files(directory: str | Path) -> list[Path]:
