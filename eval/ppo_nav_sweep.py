@@ -134,7 +134,7 @@ def plot(out: Path, methods: list[str]) -> None:
     for ax, name in zip(axes, ("success (arrival)", "SPL"), strict=True):
         ax.set(xlabel="training steps", ylabel=name, ylim=(-0.02, 1.02))
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
+    axes[1].legend(fontsize=8, loc="upper right")  # the SPL panel has room above the curves
     fig.suptitle("PPO in the navigation env: mean over seeds, range shaded")
     fig.savefig(out / "learning_curves.png", dpi=110, bbox_inches="tight")
     plt.close(fig)
