@@ -59,20 +59,10 @@ def run_sweep(
     described = []
     for path, args in methods:
         factory = load_factory(path)
-        filled = method_arguments(factory, args)
-        defaults = {f.name: f.default for f in dataclasses.fields(factory.args_type)}
-        label = method_label(factory.name, filled, defaults)
-        described.append(
-            {
-                "name": factory.name,
-                "label": label if driver is None else f"{label}+{driver['label']}",
-                "path": str(factory.path),
-                "sha256": file_sha256(factory.path),
-                "args": {k: args[k] for k in args},
-                "all_args": filled,
-            }
-            | ({} if driver is None else {"controller": driver})
-        )
+        method = _describe(factory, args, method_arguments(factory, args))
+        if driver is not None:
+            method |= {"label": f"{method['label']}+{driver['label']}", "controller": driver}
+        described.append(method)
     cache = None if cache_dir is None else str(Path(cache_dir).resolve())
     tasks, owners = [], []
     for t, track in enumerate(tracks):
@@ -138,7 +128,12 @@ def _describe_controller(
             "navigation tracks (choose the nav_* tracks)"
         )
     factory = load_controller_file(path)
-    filled = factory.arguments(args)
+    return _describe(factory, args, factory.arguments(args))
+
+
+def _describe(factory: Any, args: Mapping[str, Any], filled: dict[str, Any]) -> dict[str, Any]:
+    """What a result records of a plug-in (a method or a controller): its name, label, file,
+    SHA-256, the arguments given and all of them (``filled``, the defaults filled in)."""
     defaults = {f.name: f.default for f in dataclasses.fields(factory.args_type)}
     return {
         "name": factory.name,
