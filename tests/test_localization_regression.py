@@ -18,6 +18,7 @@ from sfa_gym.localization.regression import (
     LinearRegressor,
     MapDecoder,
     QuadraticRidge,
+    _cosine_basis,
     make_regressor,
 )
 
@@ -295,6 +296,55 @@ def test_map_decoder_rejects_bad_targets_and_settings():
         MapDecoder(degree=0).fit(f, np.random.default_rng(1).uniform(size=(20, 2)))
     with pytest.raises(NotFittedError):
         MapDecoder().predict(f)
+
+
+def _landmark_features(xy: np.ndarray, noise: float, rng: np.random.Generator) -> np.ndarray:
+    """Two axis cosines and the nearness of three landmarks: maps that the cosine basis fits
+    only with its higher terms, which swing wherever no training position holds them."""
+    u = xy / 6.0
+    near = [1.0 / (0.3 + np.hypot(*(xy - landmark).T)) for landmark in ((4.5, 4), (5, 1), (1, 5))]
+    f = np.stack([np.cos(np.pi * u[:, 0]), np.cos(np.pi * u[:, 1]), *near], axis=1)
+    return f + rng.normal(0.0, noise, f.shape)
+
+
+def test_map_decoder_smoothness_reaches_into_a_region_never_trained_on():
+    rng = np.random.default_rng(0)
+    train = rng.uniform(0, 6, (3000, 2))
+    train = train[~np.all(train < 2.0, axis=1)]  # the 2 x 2 m corner is never visited
+    hole, rest = rng.uniform(0.2, 1.8, (300, 2)), rng.uniform(2.2, 5.8, (300, 2))
+    f_train = _landmark_features(train, 0.05, rng)
+    f_hole, f_rest = (_landmark_features(p, 0.05, rng) for p in (hole, rest))
+    plain = MapDecoder(smoothness=0.0).fit(f_train, train)
+    smooth = MapDecoder().fit(f_train, train)  # "auto": block cross-validation
+    assert smooth.smoothness_ > 0
+    assert set(smooth.cv_scores_) == set(MapDecoder.SMOOTHNESS_GRID)
+    assert smooth.cv_scores_[smooth.smoothness_] == min(smooth.cv_scores_.values())
+    error = {
+        (name, part): np.abs(decoder.predict(f) - p).mean()
+        for name, decoder in (("plain", plain), ("smooth", smooth))
+        for part, f, p in (("hole", f_hole, hole), ("rest", f_rest, rest))
+    }
+    assert error["smooth", "hole"] < 0.6 * error["plain", "hole"]
+    assert error["smooth", "rest"] < 1.2 * error["plain", "rest"]
+
+
+def test_map_decoder_without_smoothness_is_least_squares():
+    rng = np.random.default_rng(3)
+    train = rng.uniform(0, 6, (500, 2))
+    f = _landmark_features(train, 0.05, rng)
+    decoder = MapDecoder(degree=4, smoothness=0.0).fit(f, train)
+    basis = _cosine_basis(train, train.min(axis=0), train.max(axis=0), 4)
+    coef = np.linalg.lstsq(basis, f, rcond=None)[0]
+    np.testing.assert_allclose(decoder.coef_, coef[1:], atol=1e-5)
+    np.testing.assert_allclose(decoder.intercept_, coef[0], atol=1e-5)
+    assert not hasattr(decoder, "cv_scores_")
+
+
+@pytest.mark.parametrize("smoothness", [-1.0, float("nan"), "cv", True])
+def test_map_decoder_rejects_a_bad_smoothness(smoothness):
+    f = np.random.default_rng(0).normal(size=(20, 3))
+    with pytest.raises(ValueError, match=r"smoothness must be a number >= 0 or 'auto', got"):
+        MapDecoder(smoothness=smoothness).fit(f, np.random.default_rng(1).uniform(size=(20, 2)))
 
 
 def test_map_decoder_on_a_line():

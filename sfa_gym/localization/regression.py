@@ -301,6 +301,74 @@ def _cosine_basis(
     )
 
 
+def _bending(degree: int, dims: int) -> NDArray[np.float64]:
+    """``(i^2 + j^2)^2`` for each function of :func:`_cosine_basis` (``i^4`` on a line): its
+    squared Laplacian integrated over the box, up to a factor common to all of them."""
+    i = np.arange(degree + 1, dtype=np.float64)
+    if dims == 1:
+        return i**4
+    return np.array([(a * a + b * b) ** 2 for a in i for b in i[: degree + 1 - int(a)]])
+
+
+def _penalised_map(
+    gram: NDArray[np.float64],
+    cross: NDArray[np.float64],
+    bending: NDArray[np.float64],
+    smoothness: float,
+) -> NDArray[np.float64]:
+    """Coefficients ``(n_basis, k)`` minimising the mean squared residual plus the bending
+    penalty, from the mean products ``gram = B'B / n`` and ``cross = B'X / n``."""
+    # A tiny ridge keeps the fit defined where the positions do not pin down every basis
+    # function (few positions, or positions along a few lines); the constant stays free.
+    penalty = smoothness * bending + 1e-8 * (bending > 0)
+    return np.linalg.solve(gram + np.diag(penalty), cross)
+
+
+def _blocks(
+    y: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64], blocks: int
+) -> NDArray[np.intp]:
+    """The cross-validation block of each position: the box cut into ``blocks`` per axis."""
+    cell = np.minimum(((y - low) / (high - low) * blocks).astype(np.intp), blocks - 1)
+    return np.ravel_multi_index(tuple(cell.T), (blocks,) * y.shape[1])
+
+
+def _block_cv_scores(
+    basis: NDArray[np.float64],
+    x: NDArray[np.float64],
+    bending: NDArray[np.float64],
+    fold: NDArray[np.intp],
+) -> dict[float, float]:
+    """Held-out negative log-likelihood per sample of each penalty of
+    :attr:`MapDecoder.SMOOTHNESS_GRID`, each block of ``fold`` held out in turn.
+
+    Everything comes from the blocks' sums of products (``B'B``, ``B'X``, ``X'X``), so a
+    penalty costs a few small solves however long the run is."""
+    sums = {}
+    for f in np.unique(fold):
+        b, v = basis[fold == f], x[fold == f]
+        sums[f] = (len(v), b.T @ b, b.T @ v, (v * v).sum(axis=0))
+    total = tuple(sum(part[i] for part in sums.values()) for i in range(4))
+    floor = 1e-6 * x.var(axis=0).max() + 1e-300
+
+    def squares(coef, gram, cross, xx):  # residual sum of squares per feature
+        return np.maximum(xx - 2 * (coef * cross).sum(axis=0) + (coef * (gram @ coef)).sum(0), 0)
+
+    scores = {}
+    for smoothness in map(float, MapDecoder.SMOOTHNESS_GRID):
+        score = 0.0
+        for n_held, gram_held, cross_held, xx_held in sums.values():
+            n = total[0] - n_held
+            if n == 0:
+                continue  # the positions fill one block: nothing to fit the others on
+            gram, cross, xx = total[1] - gram_held, total[2] - cross_held, total[3] - xx_held
+            coef = _penalised_map(gram / n, cross / n, bending, smoothness)
+            variance = np.maximum(squares(coef, gram, cross, xx) / n, floor)
+            held = squares(coef, gram_held, cross_held, xx_held)
+            score += float((held / variance).sum() + n_held * np.log(variance).sum())
+        scores[smoothness] = score / len(x)
+    return scores
+
+
 def _grid(axes: list[NDArray[np.float64]]) -> NDArray[np.float64]:
     """All points ``(prod of lengths, m)`` of the grid spanned by ``m`` axes."""
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
@@ -321,6 +389,18 @@ class MapDecoder(_Base):
     position on features represents well near the walls; the forward map has few parameters
     per feature, so it needs few labelled positions.
 
+    *Smoothness*: the fit penalises ``smoothness * sum (i^2 + j^2)^2 c_ij^2`` (per unit of mean
+    squared residual), which is, up to a constant factor, the integral of the squared Laplacian
+    of the map over the box: a bending energy. Where training positions pin the map down it
+    changes little; where none lie (a region the training run never visited, the gaps between
+    the lanes of a path) the map becomes the least bent surface that joins its surroundings,
+    instead of whatever the highest cosines happen to do there. ``"auto"`` chooses the penalty
+    by spatial block cross-validation: the box is cut into ``cv_blocks`` x ``cv_blocks`` blocks,
+    each block is held out in turn, and the penalty of :attr:`SMOOTHNESS_GRID` under whose maps
+    the held-out features are most likely (the decoder's own Gaussian noise model, fitted on
+    the other blocks) wins. Holding out whole blocks, not scattered samples, asks how well the
+    map reaches into places it has not seen.
+
     Estimates lie inside the box of the training positions. Targets are 2-D positions
     ``(N, 2)``, or positions on a line (``(N, 1)`` or ``(N,)``, basis ``cos(i pi u)``).
 
@@ -329,25 +409,52 @@ class MapDecoder(_Base):
             coefficients per feature in the plane).
         grid: coarse search grid points per axis; the fine search divides one coarse cell into
             4 steps each way around the best point.
+        smoothness: the bending penalty (a number >= 0; 0: plain least squares), or ``"auto"``
+            to choose it by spatial block cross-validation.
+        cv_blocks: blocks per axis of the cross-validation (``"auto"`` only).
 
     Attributes:
         coef_: (n_basis - 1, k) float64, intercept_: (k,) float64. The map from the non-constant
             basis functions to the features.
         weights_: (k,) float64. Inverse variance of each feature around its map.
         low_, high_: (m,) float64. The box of the training positions, metres.
+        smoothness_: float. The penalty used (the chosen one with ``"auto"``).
+        cv_scores_: dict[float, float]. With ``"auto"``: for each penalty tried, the negative
+            log-likelihood of the held-out features per sample (up to a constant; lower is
+            better).
         n_features_in_: int.
     """
 
-    def __init__(self, degree: int = 6, grid: int = 61) -> None:
+    SMOOTHNESS_GRID = (0.0, 1e-6, 1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 1e-1)
+    """The penalties ``"auto"`` chooses from (about half a decade apart around the values that
+    won on the project's runs)."""
+
+    def __init__(
+        self,
+        degree: int = 6,
+        grid: int = 61,
+        smoothness: float | Literal["auto"] = "auto",
+        cv_blocks: int = 3,
+    ) -> None:
         self.degree = degree
         self.grid = grid
+        self.smoothness = smoothness
+        self.cv_blocks = cv_blocks
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> MapDecoder:
         """Fit on features ``X (N, k)`` and positions ``y (N, 2)`` (or ``(N, 1)``, ``(N,)``)."""
-        for name, low in (("degree", 1), ("grid", 5)):
+        for name, low in (("degree", 1), ("grid", 5), ("cv_blocks", 2)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
                 raise ValueError(f"{name} must be an int >= {low}, got {value!r}")
+        smoothness = self.smoothness
+        if smoothness != "auto" and (
+            isinstance(smoothness, bool)
+            or not isinstance(smoothness, numbers.Real)
+            or not np.isfinite(smoothness)
+            or smoothness < 0
+        ):
+            raise ValueError(f"smoothness must be a number >= 0 or 'auto', got {smoothness!r}")
         x, y = self._validate_fit(X, y)
         y = y.reshape(len(y), -1)
         if y.shape[1] > 2:
@@ -363,19 +470,33 @@ class MapDecoder(_Base):
                 f"the training positions span no area (range {high - low} m); MapDecoder needs "
                 "positions spread over every axis"
             )
-        basis = _cosine_basis(y, low, high, self.degree)[:, 1:]
-        # A tiny ridge keeps the fit defined where the positions do not pin down every basis
-        # function (few positions, or positions along a few lines).
-        model = Ridge(alpha=1e-8 * len(x)).fit(basis, x)
-        coef, intercept = model.coef_.T, model.intercept_
-        residual = x - (basis @ coef + intercept)
+        self.low_, self.high_ = low, high
+        basis = _cosine_basis(y, low, high, self.degree)
+        bending = _bending(self.degree, y.shape[1])
+        if smoothness == "auto":
+            self.cv_scores_ = _block_cv_scores(
+                basis, x, bending, _blocks(y, self.low_, self.high_, self.cv_blocks)
+            )
+            smoothness = min(self.cv_scores_, key=self.cv_scores_.__getitem__)
+        self.smoothness_ = float(smoothness)
+        self._fit_map(basis, x, bending, self.smoothness_)
+        return self
+
+    def _fit_map(
+        self,
+        basis: NDArray[np.float64],
+        x: NDArray[np.float64],
+        bending: NDArray[np.float64],
+        smoothness: float,
+    ) -> None:
+        """Set ``coef_``, ``intercept_`` and ``weights_`` from the penalised least squares."""
+        n = len(x)
+        coef = _penalised_map(basis.T @ basis / n, basis.T @ x / n, bending, smoothness)
+        variance = (x - basis @ coef).var(axis=0)
         # Features that the map explains worse count less; the floor keeps a perfectly explained
         # feature from dominating through round-off.
-        variance = residual.var(axis=0)
         self.weights_ = 1.0 / np.maximum(variance, 1e-6 * x.var(axis=0).max() + 1e-300)
-        self.coef_, self.intercept_ = coef, intercept
-        self.low_, self.high_ = low, high
-        return self
+        self.coef_, self.intercept_ = coef[1:], coef[0]
 
     def _mapped(self, positions: NDArray[np.float64]) -> NDArray[np.float64]:
         return _cosine_basis(positions, self.low_, self.high_, self.degree)[:, 1:] @ self.coef_ + (
@@ -384,7 +505,10 @@ class MapDecoder(_Base):
 
     def predict(self, X: ArrayLike) -> NDArray[np.float64]:
         """Positions ``(N, m)`` (``(N,)`` if fitted on 1-D targets) for features ``X (N, k)``."""
-        x = self._validate_predict(X)
+        return self._as_targets(self._decode(self._validate_predict(X)))
+
+    def _decode(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The best-matching positions ``(N, m)`` for validated features ``x (N, k)``."""
         w = np.sqrt(self.weights_)
         m = len(self.low_)
         coarse = _grid(
@@ -406,7 +530,7 @@ class MapDecoder(_Base):
             mapped = self._mapped(local.reshape(n * c, m)).reshape(n, c, -1)
             nearest = (((mapped - part[:, None, :]) * w) ** 2).sum(axis=2).argmin(axis=1)
             out[i0 : i0 + 1024] = local[np.arange(n), nearest]
-        return self._as_targets(out)
+        return out
 
 
 REGRESSORS: dict[str, type[_Base]] = {
