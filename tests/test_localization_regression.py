@@ -317,8 +317,8 @@ def test_map_decoder_smoothness_reaches_into_a_region_never_trained_on():
     plain = MapDecoder(smoothness=0.0).fit(f_train, train)
     smooth = MapDecoder().fit(f_train, train)  # "auto": block cross-validation
     assert smooth.smoothness_ > 0
-    assert set(smooth.cv_scores_) == set(MapDecoder.SMOOTHNESS_GRID)
-    assert smooth.cv_scores_[smooth.smoothness_] == min(smooth.cv_scores_.values())
+    assert set(smooth.cv_errors_) == set(MapDecoder.SMOOTHNESS_GRID)
+    assert smooth.cv_errors_[smooth.smoothness_] == min(smooth.cv_errors_.values())
     error = {
         (name, part): np.abs(decoder.predict(f) - p).mean()
         for name, decoder in (("plain", plain), ("smooth", smooth))
@@ -337,7 +337,7 @@ def test_map_decoder_without_smoothness_is_least_squares():
     coef = np.linalg.lstsq(basis, f, rcond=None)[0]
     np.testing.assert_allclose(decoder.coef_, coef[1:], atol=1e-5)
     np.testing.assert_allclose(decoder.intercept_, coef[0], atol=1e-5)
-    assert not hasattr(decoder, "cv_scores_")
+    assert not hasattr(decoder, "cv_errors_")
 
 
 @pytest.mark.parametrize("smoothness", [-1.0, float("nan"), "cv", True])
