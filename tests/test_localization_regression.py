@@ -13,12 +13,12 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
+from sfa_gym.localization.map_decoder import _cosine_basis
 from sfa_gym.localization.regression import (
     KNNRegressor,
     LinearRegressor,
     MapDecoder,
     QuadraticRidge,
-    _cosine_basis,
     make_regressor,
 )
 
