@@ -238,6 +238,7 @@ class MapDecoder(_Base):
         errors = dict.fromkeys(map(float, self.SMOOTHNESS_GRID), 0.0)
         held_out = MapDecoder(self.degree, self.grid)
         held_out.low_, held_out.high_ = self.low_, self.high_
+        coarse = self._coarse_grid()  # the same box for every fold: its basis is computed once
         scored = 0
         for f, block in blocks.items():
             if block.n == total.n:
@@ -245,31 +246,43 @@ class MapDecoder(_Base):
             rows = np.flatnonzero(fold == f)[::every]
             for smoothness in errors:
                 held_out._set_map(*(total - block).fit(bending, smoothness), floor)
-                decoded = held_out._decode(x[rows], refine=False)
+                decoded = held_out._decode(x[rows], refine=False, coarse=coarse)
                 errors[smoothness] += float(np.abs(decoded - y[rows]).sum())
             scored += rows.size * y.shape[1]
         return {s: e / max(scored, 1) for s, e in errors.items()}
 
     def _mapped(self, positions: NDArray[np.float64]) -> NDArray[np.float64]:
-        return _cosine_basis(positions, self.low_, self.high_, self.degree)[:, 1:] @ self.coef_ + (
-            self.intercept_
-        )
+        return self._map_basis(_cosine_basis(positions, self.low_, self.high_, self.degree))
+
+    def _map_basis(self, basis: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The mapped features at points whose cosine basis (constant included) is ``basis``."""
+        return basis[:, 1:] @ self.coef_ + self.intercept_
+
+    def _coarse_grid(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The coarse search grid over the box, ``(grid^m, m)``, and its cosine basis."""
+        box = zip(self.low_, self.high_, strict=True)
+        points = _grid([np.linspace(lo, hi, self.grid) for lo, hi in box])
+        return points, _cosine_basis(points, self.low_, self.high_, self.degree)
 
     def predict(self, X: ArrayLike) -> NDArray[np.float64]:
         """Positions ``(N, m)`` (``(N,)`` if fitted on 1-D targets) for features ``X (N, k)``."""
         return self._as_targets(self._decode(self._validate_predict(X)))
 
-    def _decode(self, x: NDArray[np.float64], refine: bool = True) -> NDArray[np.float64]:
+    def _decode(
+        self,
+        x: NDArray[np.float64],
+        refine: bool = True,
+        coarse: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    ) -> NDArray[np.float64]:
         """The best-matching positions ``(N, m)`` for validated features ``x (N, k)``, on the
-        coarse grid only unless ``refine``."""
+        coarse grid only unless ``refine``; ``coarse``: :meth:`_coarse_grid`, if already at
+        hand."""
         w = np.sqrt(self.weights_)
         m = len(self.low_)
-        coarse = _grid(
-            [np.linspace(lo, hi, self.grid) for lo, hi in zip(self.low_, self.high_, strict=True)]
-        )
+        coarse, coarse_basis = self._coarse_grid() if coarse is None else coarse
         # The coarse grid's features, mapped once: every row is scored against all of them
         # with one matrix product (the squared norm of a row does not change its argmin).
-        coarse_mapped = self._mapped(coarse) * w
+        coarse_mapped = self._map_basis(coarse_basis) * w
         coarse_norms = (coarse_mapped**2).sum(axis=1)
         cell = (self.high_ - self.low_) / (self.grid - 1)
         fine = _grid([np.linspace(-1.0, 1.0, 2 * 4 + 1)] * m)
