@@ -11,7 +11,7 @@ alone (light, movers, noise). For each output it reports the *appearance share*:
 frames (0: the output is the same whenever the rover is at a place; 1: it codes only the time
 of day). Then it fits the map decoder (the outdoor table's best SFA regression) on all outputs
 and on the outputs left after dropping the 1, 2 and 3 with the largest share, and scores each
-on every test run of the folder, as the experiment does (12 rotation windows per frame).
+on every test run of the folder, as the experiment does (its rotation windows per frame).
 Writes ``appearance_share.json`` into the folder.
 """
 
@@ -23,9 +23,6 @@ from pathlib import Path
 
 import numpy as np
 import tyro
-from tqdm import tqdm
-
-EVAL_WINDOWS = 12  # the experiment's default: every 30 degrees
 
 
 @dataclass(frozen=True)
@@ -36,21 +33,13 @@ class Args:
     """numbers of the most appearance-coding outputs left out of the regression"""
 
 
-def _features(model, panoramas, windows, desc: str) -> np.ndarray:
-    """``(L, len(windows), k)`` slow features of the rotated views of each panorama."""
-    out = [
-        model.transform_rotations(np.asarray(panoramas[i : i + 32]), step=5)[:, windows]
-        for i in tqdm(range(0, len(panoramas), 32), desc=desc)
-    ]
-    return np.concatenate(out)
-
-
 def main(args: Args) -> None:
+    from sfa_gym.experiments.common import view_features
     from sfa_gym.experiments.outdoor import interleave
     from sfa_gym.geometry import in_rectangle
     from sfa_gym.localization import mae, make_regressor, predict_locations
     from sfa_gym.recording.runfile import load_run
-    from sfa_gym.rotation import spread_indices
+    from sfa_gym.rotation import Rotation, spread_indices
     from sfa_gym.sfa.io import load_model
 
     results = json.loads((args.out / "results.json").read_text())
@@ -65,12 +54,16 @@ def main(args: Args) -> None:
     model = load_model(args.out / "sfa_model.npz")
     n = config["train_frames"]
     drive = load_run(args.out / "drive.run")
-    width = drive.panoramas.shape[2]
-    windows = spread_indices(width // 5, EVAL_WINDOWS)
-    train = [_features(model, drive.panoramas[:n], windows, "train")]
+    rotation = Rotation(step=config["step"])
+    windows = spread_indices(rotation.n_views(drive.panoramas.shape[2]), config["eval_rotations"])
+
+    def features(panoramas, desc: str) -> np.ndarray:
+        return view_features(model, panoramas, rotation, windows, desc)
+
+    train = [features(drive.panoramas[:n], "train")]
     for hours in config["train_also"]:
         run = load_run(args.out / f"train_{hours:+g}h.run")
-        train.append(_features(model, run.panoramas, windows, f"train {hours:+g} h"))
+        train.append(features(run.panoramas, f"train {hours:+g} h"))
     xy_train = np.asarray(drive.poses[:n, :2], dtype=np.float64)
 
     # per frame the mean over the windows: the rotation is not what is asked about here
@@ -84,7 +77,7 @@ def main(args: Args) -> None:
     for path in sorted(args.out.glob("test_*.run")):
         run = load_run(path)
         tests[path.name[len("test_") : -len(".run")]] = (run.panoramas, run.poses[:, :2])
-    f_tests = {c: _features(model, p, windows, c) for c, (p, _) in tests.items()}
+    f_tests = {c: features(p, c) for c, (p, _) in tests.items()}
     xy_after = np.asarray(tests["after"][1], dtype=np.float64)
     test_range = xy_after.max(axis=0) - xy_after.min(axis=0)
     region = results["unvisited_region"]
