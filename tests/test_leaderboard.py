@@ -105,7 +105,13 @@ def test_navigation_episode_seeds_must_avoid_the_readme_episodes():
 def test_navigation_tracks_fix_every_controller_setting(change, message):
     data = json.loads((ROOT / "eval" / "tracks" / "nav_open.json").read_text())
     track = track_from_dict(copy.deepcopy(data), "nav_open.json")
-    assert GradientSettings(**track.params["controller"]) == GradientSettings()
+    # track version 2 keeps the controller it was scored with: the library's defaults since
+    # then search out of stalls (searches, search_after, search_found, give_up)
+    scored_with = dataclasses.replace(
+        GradientSettings(), searches=0, search_after=4.0, search_found=0.5, give_up=6.0
+    )
+    assert track.track_version == 2
+    assert GradientSettings(**track.params["controller"]) == scored_with
     change(data["params"]["controller"])
     with pytest.raises(TrackError, match=message):
         track_from_dict(data, "nav_open.json")

@@ -129,7 +129,7 @@ def test_search_spiral_grows_ends_on_a_lower_cost_and_avoids_what_is_ahead():
         # an Archimedean spiral: r^2 = r0^2 + pitch * d / pi
         expected = math.sqrt(s.search_start**2 + s.search_pitch * travelled / math.pi)
         controller._v = min(s.speed, 0.9 * expected)  # the acceleration limit not in the way
-        v, w, stop = controller._spiral(80.0, travelled, open_ranges, yaw=0.0)
+        v, w, stop = controller._spiral(90.0, travelled, open_ranges, yaw=0.0)
         assert v > 0 and w > 0 and stop < 0
         radii.append(v / w)
         assert v / w == pytest.approx(expected, rel=1e-3)
@@ -138,8 +138,42 @@ def test_search_spiral_grows_ends_on_a_lower_cost_and_avoids_what_is_ahead():
     walled = open_ranges.copy()
     walled[3:] = 0.35
     controller._v = 0.3
-    _, w, _ = controller._spiral(80.0, 1.0, walled, yaw=0.0)
+    _, w, _ = controller._spiral(90.0, 1.0, walled, yaw=0.0)
     assert w < 0
     # a cost below search_found of the best before it ends the search
     assert controller._spiral(s.search_found * 100.0 - 1.0, 1.0, open_ranges, 0.0) is None
     assert controller._search is None
+
+
+def test_a_parked_rover_searches_far_from_the_goal_and_a_moving_one_does_not():
+    # features linear in the position, the goal's 10 m away: far beyond slow_distance
+    controller = GradientController(np.ones(2), np.linspace(-math.pi / 2, math.pi / 2, 7))
+    s = controller.settings
+    goal = {"goal_features": np.array([10.0, 0.0])}
+    ranges = np.full(7, 2.0)
+
+    def sense(x, y):
+        obs = {"features": np.array([x, y]), **goal}
+        return obs, {"odometry": (x, y, 0.0), "range": ranges}
+
+    controller.reset(*sense(0.0, 0.0))
+    # an L of two 0.3 m legs, 1 cm a step: moving, with no tenth off the cost (100 -> 94)
+    path = [(0.01 * i, 0.0) for i in range(31)] + [(0.3, 0.01 * i) for i in range(1, 31)]
+    for x, y in path:
+        controller.act(*sense(x, y))
+    assert controller._t > s.search_after  # no progress for longer than search_after ...
+    assert controller.mode == "descend"  # ... but it moved 0.6 m meanwhile: not stuck
+    assert controller.estimate["distance"] > s.slow_distance
+    # then it stays where it is (turning on the spot against a wall, say)
+    modes = []
+    for _ in range(round(s.search_after / controller.dt) + 2):
+        controller.act(*sense(0.3, 0.3))
+        modes.append(controller.mode)
+    assert modes[0] == "descend" and modes[-1] == "search"
+    # with searches=0 it never searches
+    off = GradientSettings(searches=0)
+    still = GradientController(np.ones(2), controller.range_angles, settings=off)
+    still.reset(*sense(0.0, 0.0))
+    for x, y in path + [(0.3, 0.3)] * 70:
+        still.act(*sense(x, y))
+        assert still.mode != "search"

@@ -108,8 +108,9 @@ class GradientSettings:
     sees more room on"""
     stop_window: int = 3
     """steps in the running mean of the cost"""
-    give_up: float = 6.0
-    """metres travelled without lowering the best cost by ``progress`` before giving up"""
+    give_up: float = 10.0
+    """metres travelled without lowering the best cost by ``progress`` before giving up (a
+    search that finds a lower cost starts the count afresh)"""
     progress: float = 0.1
     """relative decrease of the best cost that counts as progress"""
     clearance: float = 0.55
@@ -118,26 +119,30 @@ class GradientSettings:
     """weight of the push away from close range readings, against the unit descent direction"""
     influence: float = 0.9
     """range (m) below which a reading pushes the rover away; the push grows linearly to 1 at 0"""
-    search_after: float = 4.0
-    """seconds without lowering the best cost by ``progress`` (the rover circles or sits in a
-    false minimum of the cost, most of them along walls) before it searches around itself"""
+    search_after: float = 6.0
+    """seconds without lowering the best cost by ``progress`` after which a rover that is stuck
+    searches around itself: stuck near the goal (the fit's curvature puts it within
+    ``slow_distance``) or ``parked``"""
+    parked: float = 0.2
+    """metres travelled over the last ``search_after`` seconds below which the rover counts as
+    stuck wherever it is: far from the goal it stalls mostly by turning on the spot against a
+    wall or an obstacle, where the descent points into it and the range sensor's push away
+    turns with the rover"""
     search_pitch: float = 0.3
     """metres between the loops of the search spiral"""
     search_start: float = 0.2
     """radius (m) of the search spiral's first loop"""
-    search_found: float = 0.5
+    search_found: float = 0.8
     """the search ends when the cost falls below this fraction of the best cost before it"""
-    searches: int = 0
-    """searches per episode at most (0, the default: none). On 100-episode sets (two seed sets,
-    two world seeds, obstacle and open worlds) 3 searches changed success by -4 to +5 points,
-    within the spread that the weave's random phase alone gives: not yet a gain"""
+    searches: int = 3
+    """searches per episode at most (0: none)"""
 
     def validate(self) -> None:
         """Raise ValueError naming the first bad setting."""
         for name in (
             "memory", "window", "weave_wavelength", "speed", "slow_distance", "min_speed",
             "accel", "turn_gain", "stop_distance", "give_up", "clearance", "influence",
-            "search_pitch", "search_start",
+            "search_pitch", "search_start", "parked",
         ):  # fmt: skip
             check_positive(name, getattr(self, name))
         for name in (
@@ -178,11 +183,12 @@ class GradientController:
     has false minima along the walls. It stops when the running mean of the cost
     falls below the cost of being ``stop_distance`` from the goal in the direction where the cost
     rises slowest (the smaller eigenvalue of ``J^T W J``) plus the fit's noise floor,
-    and gives up (stops) after ``give_up`` metres without progress. With ``searches``, stuck
-    in a false minimum (``search_after`` seconds without progress while the fit's curvature
-    puts the goal within ``slow_distance``: mostly by walls and obstacles, where the rover
-    otherwise turns on the spot until the time limit), it drives an outward spiral until the
-    cost falls to ``search_found`` of its best, and follows the gradient again from there.
+    and gives up (stops) after ``give_up`` metres without progress. Stuck (``search_after``
+    seconds without progress, and either the fit's curvature puts the goal within
+    ``slow_distance`` or the rover has moved less than ``parked`` metres in that time: a false
+    minimum of the cost, or a stall against a wall or an obstacle), it drives an outward spiral
+    until the cost falls to ``search_found`` of its best, and follows the gradient again from
+    there (at most ``searches`` times an episode).
 
     Args:
         weights: ``(k,)`` feature weights (:func:`slowness_weights`).
@@ -234,6 +240,8 @@ class GradientController:
         # (odometer at its start, best cost before it, turning direction) of a search, if on
         self._search: tuple[float, float, float] | None = None
         self._searches = 0
+        # the odometer over the last search_after seconds, to tell a parked rover
+        self._odometer: deque[float] = deque(maxlen=round(s.search_after / self.dt) + 1)
         self._phase = float(self.rng.uniform(0, math.tau))
         self._probe_yaw: float | None = None  # heading (odometry) of the probe's current leg
         self._probe_turned = False
@@ -254,6 +262,7 @@ class GradientController:
         position = np.array([x, y])
         self._local.remember(position, f)
         travelled = self._local.travelled
+        self._odometer.append(travelled)
 
         cost = float(np.sum(self.weights * (f - g) ** 2))
         self._costs.append(cost)
@@ -295,9 +304,14 @@ class GradientController:
         if len(self._costs) == s.stop_window and np.mean(self._costs) < stop_cost:
             return self._stop()
 
-        # stuck where the fit's curvature says the goal is near but the cost stays above the
-        # stop threshold: a false minimum, not a slow descent far from the goal
-        stuck = self._t - self._best_t > s.search_after and distance < s.slow_distance
+        # stuck: where the fit's curvature says the goal is near but the cost stays above the
+        # stop threshold (a false minimum, not a slow descent far from the goal), or anywhere
+        # without moving (turning on the spot against a wall or an obstacle)
+        parked = (
+            len(self._odometer) == self._odometer.maxlen
+            and travelled - self._odometer[0] < s.parked
+        )
+        stuck = self._t - self._best_t > s.search_after and (distance < s.slow_distance or parked)
         if self._search is None and stuck:
             if self._searches < s.searches:
                 self._searches += 1
@@ -329,7 +343,7 @@ class GradientController:
         s = self.settings
         start, before, turn = self._search
         if cost < s.search_found * before:
-            self._search, self._best_t = None, self._t
+            self._search, self._best_t, self._best_at = None, self._t, travelled
             return None
         # radius after d metres of an Archimedean spiral: r^2 = r0^2 + pitch * d / pi
         radius = math.sqrt(s.search_start**2 + s.search_pitch * (travelled - start) / math.pi)
