@@ -209,11 +209,12 @@ class MapDecoder(_Base):
         bending = _bending(self.degree, y.shape[1])
         # the floor keeps a perfectly explained feature from dominating through round-off
         floor = 1e-6 * x.var(axis=0).max() + 1e-300
+        total = _Sums.of(basis, x)
         if smoothness == "auto":
-            self.cv_errors_ = self._block_cv(basis, x, y, bending, floor)
+            self.cv_errors_ = self._block_cv(basis, x, y, total, bending, floor)
             smoothness = min(self.cv_errors_, key=self.cv_errors_.__getitem__)
         self.smoothness_ = float(smoothness)
-        self._set_map(*_Sums.of(basis, x).fit(bending, self.smoothness_), floor)
+        self._set_map(*total.fit(bending, self.smoothness_), floor)
         return self
 
     def _set_map(self, coef: NDArray, variance: NDArray, floor: float) -> None:
@@ -226,15 +227,15 @@ class MapDecoder(_Base):
         basis: NDArray[np.float64],
         x: NDArray[np.float64],
         y: NDArray[np.float64],
+        total: _Sums,
         bending: NDArray[np.float64],
         floor: float,
     ) -> dict[float, float]:
         """Mean absolute error, m, of the held-out blocks' positions decoded on the coarse
-        grid, for each penalty of :attr:`SMOOTHNESS_GRID`."""
+        grid, for each penalty of :attr:`SMOOTHNESS_GRID`; ``total``: the sums of all samples."""
         fold = _blocks(y, self.low_, self.high_, self.cv_blocks)
         every = max(1, -(-len(x) // self.CV_SAMPLES))
         blocks = {f: _Sums.of(basis[fold == f], x[fold == f]) for f in np.unique(fold)}
-        total = _Sums.of(basis, x)
         errors = dict.fromkeys(map(float, self.SMOOTHNESS_GRID), 0.0)
         held_out = MapDecoder(self.degree, self.grid)
         held_out.low_, held_out.high_ = self.low_, self.high_
