@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sfa_gym.recording.ordering import grid_order, hilbert_index
+from sfa_gym.recording.ordering import edge_walk, grid_order, hilbert_index
 from sfa_gym.sim import gl
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -64,6 +64,34 @@ def test_serpentine_alternates_direction():
     assert path[:5].tolist() == [[0, 0], [0, 1], [0, 2], [0, 3], [1, 3]]
 
 
+def test_edge_walk_steps_along_every_edge_once_each_way_and_never_across_a_hole():
+    # a 5 x 5 grid with a wall of three cells in the middle row, one isolated cell apart
+    rows, cols = np.meshgrid(np.arange(5), np.arange(5), indexing="ij")
+    cells = np.stack([rows.ravel(), cols.ravel()], axis=1)
+    cells = cells[~((cells[:, 0] == 2) & (cells[:, 1] >= 1) & (cells[:, 1] <= 3))]
+    cells = np.vstack([cells, [[9, 9]]])
+    walk = edge_walk(cells)
+    path = cells[walk]
+    assert np.abs(np.diff(path, axis=0)).sum(axis=1).tolist() == [1] * (len(walk) - 1)
+    steps = sorted(zip(walk[:-1].tolist(), walk[1:].tolist(), strict=True))
+    edges = {
+        (a, b)
+        for a in range(len(cells))
+        for b in range(len(cells))
+        if np.abs(cells[a] - cells[b]).sum() == 1
+    }
+    assert steps == sorted(edges)  # every directed step once: 30 edges, both ways
+    assert walk[0] == walk[-1] == 0 and len(cells) - 1 not in walk  # the isolated cell is left
+    # a cell that forbids its step towards +i loses that edge, both ways
+    passable = np.ones((len(cells), 4), dtype=bool)
+    passable[0, 0] = False
+    assert len(edge_walk(cells, passable)) == len(walk) - 2
+    with pytest.raises(ValueError, match="distinct"):
+        edge_walk(np.zeros((2, 2), dtype=int))
+    with pytest.raises(ValueError, match=r"passable must have shape \(3, 4\)"):
+        edge_walk(cells[:3], np.ones((3, 3), dtype=bool))
+
+
 def test_grid_order_rejects_bad_input():
     with pytest.raises(ValueError, match="kind"):
         grid_order(np.zeros((3, 2), dtype=int), kind="zigzag")
@@ -87,7 +115,13 @@ def test_sfa_engine_imports_neither_gymnasium_nor_mujoco():
                 assert root not in {"gymnasium", "mujoco"}, f"{path.name} imports {name}"
                 # the engine may use the numpy-only helpers of the package, nothing of the sim
                 assert not name.startswith("sfa_gym.") or name.startswith(
-                    ("sfa_gym.sfa", "sfa_gym._types", "sfa_gym.rotation", "sfa_gym._files")
+                    (
+                        "sfa_gym.sfa",
+                        "sfa_gym._types",
+                        "sfa_gym._checks",
+                        "sfa_gym.rotation",
+                        "sfa_gym._files",
+                    )
                 ), f"{path.name} imports {name}"
 
 
