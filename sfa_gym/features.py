@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from sfa_gym.rotation import rotated_views
 
-__all__ = ["rotation_averaged_features"]
+__all__ = ["EmbeddedFeatures", "rotation_averaged_features"]
 
 
 def rotation_averaged_features(
@@ -25,7 +25,9 @@ def rotation_averaged_features(
     Args:
         model: a fitted feature model: ``transform(views (N, H, w, 3) uint8) -> (N, k)``, and
             optionally ``transform_rotations(panoramas, step) -> (L, K, k)`` (hierarchical SFA
-            computes all rotations at once, its lower layers only once per panorama).
+            computes all rotations at once, its lower layers only once per panorama), or
+            ``rotation_averaged(panoramas, step, window) -> (L, k)`` (a model whose features
+            are a function of another model's averages: :class:`EmbeddedFeatures`).
         panoramas: ``(L, H, W, 3)`` uint8.
         step: shift between rotations in columns; must divide ``W``. ``step=1`` averages over
             every column, which makes the average invariant to turning by whole columns.
@@ -41,6 +43,8 @@ def rotation_averaged_features(
             f"panoramas must be (L, H, W, 3) uint8, got shape {panoramas.shape} "
             f"and dtype {panoramas.dtype}"
         )
+    if hasattr(model, "rotation_averaged"):
+        return np.asarray(model.rotation_averaged(panoramas, step, window), np.float64)
     if hasattr(model, "transform_rotations"):
         return np.asarray(model.transform_rotations(panoramas, step=step), np.float64).mean(1)
     if window is None:
@@ -51,3 +55,36 @@ def rotation_averaged_features(
         views, _ = rotated_views(panorama, step=step, window=window)
         out.append(np.asarray(model.transform(views), np.float64).mean(axis=0))
     return np.stack(out) if out else np.empty((0, 0))
+
+
+class EmbeddedFeatures:
+    """A feature model's rotation-averaged features mapped by an embedding fitted on them, e.g.
+    hierarchical SFA followed by :class:`~sfa_gym.sfa.graph.WalkGraphEmbedding`: what
+    :func:`rotation_averaged_features` (and so the feature fields and the navigation wrappers)
+    gives for it is ``embedding.transform`` of the base model's averages.
+
+    Args:
+        base: a fitted feature model (see :func:`rotation_averaged_features`).
+        embedding: a fitted ``transform((n, k) base features) -> (n, m)``.
+        name: the features' name in results and figures.
+    """
+
+    def __init__(self, base: Any, embedding: Any, name: str = "embedded") -> None:
+        self.base = base
+        self.embedding = embedding
+        self.name = name
+
+    @property
+    def input_shape_(self) -> tuple[int, ...] | None:
+        return getattr(self.base, "input_shape_", None)
+
+    def rotation_averaged(
+        self, panoramas: NDArray[np.uint8], step: int = 1, window: int | None = None
+    ) -> NDArray[np.float64]:
+        """``(L, m)``: the embedding of the base model's rotation-averaged features."""
+        averages = rotation_averaged_features(self.base, panoramas, step, window)
+        return np.asarray(self.embedding.transform(averages), np.float64)
+
+    def transform(self, views: NDArray[np.uint8]) -> NDArray[np.float64]:
+        """``(N, m)``: the embedding of the base model's features of single views."""
+        return np.asarray(self.embedding.transform(self.base.transform(views)), np.float64)

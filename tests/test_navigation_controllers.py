@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import sfa_gym  # noqa: F401  (registers the ids)
-from sfa_gym.experiments.navigation import NavigationExperiment, _training_panoramas
+from sfa_gym.experiments.navigation import NavigationExperiment, _training_run
 from sfa_gym.features import rotation_averaged_features
 from sfa_gym.navigation.controllers import GradientController, GradientSettings, slowness_weights
 from sfa_gym.navigation.evaluate import run_episode
@@ -76,7 +76,8 @@ def trained():
     and its feature field at 0.3 m."""
     nav = gym.make("sfa_gym/OmniRoverNav-v0").unwrapped
     camera = OmniRoverEnv(nav.world, nav.world_seed, nav.panorama)
-    train = _training_panoramas(NavigationExperiment(train_grid=14), nav, camera, progress=False)
+    panoramas, visits = _training_run(NavigationExperiment(train_grid=14), nav, camera, False)
+    train = panoramas[visits]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RankDeficiencyWarning)
         model = HierarchicalSFA(

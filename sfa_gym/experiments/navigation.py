@@ -2,8 +2,9 @@
 field, and run navigation controllers on fixed episode seeds.
 
 1. Training run: panoramas on an ``n x n`` grid over the free space, visited in Hilbert-curve
-   order (the order shapes the slow features, as in the localization protocol); hierarchical SFA
-   is fitted on all their simulated rotations.
+   order or along a walk that steps between neighbouring free cells only (the order shapes the
+   slow features, as in the localization protocol); hierarchical SFA is fitted on all their
+   simulated rotations.
 2. Feature weights: each feature's slowness along that training sequence, to the power
    ``-weight_power`` (:func:`~sfa_gym.navigation.controllers.slowness_weights`): unsupervised,
    no positions.
@@ -37,6 +38,7 @@ from sfa_gym.navigation.controllers import GradientSettings
 __all__ = ["NavigationExperiment", "format_navigation_table", "run_navigation_experiment"]
 
 CONTROLLERS = ("gradient", "oracle", "random")
+TRAIN_ORDERS = ("hilbert", "walk")
 
 
 @dataclass(frozen=True)
@@ -48,7 +50,12 @@ class NavigationExperiment:
     world_seed: int = 0
     """seed of the world's procedural variation"""
     train_grid: int = 30
-    """the training run visits an n x n grid of positions (free ones only) in Hilbert order"""
+    """the training run visits an n x n grid of positions (free ones only)"""
+    train_order: str = "hilbert"
+    """order of the training run: "hilbert" (a Hilbert curve through the free grid positions,
+    jumping across obstacles and walls) or "walk" (every step between neighbouring free positions
+    once each way, never across an obstacle or a wall: a confined random walk's statistics, at
+    about four visits per position)"""
     field_spacing: float = 0.1
     """node spacing of the feature fields (m)"""
     episodes: int = 100
@@ -74,6 +81,10 @@ class NavigationExperiment:
         check_positive_int("train_grid", self.train_grid)
         if self.train_grid < 4:
             raise ValueError(f"train_grid must be at least 4, got {self.train_grid}")
+        if self.train_order not in TRAIN_ORDERS:
+            raise ValueError(
+                f"train_order must be one of {list(TRAIN_ORDERS)}, got {self.train_order!r}"
+            )
         check_positive("field_spacing", self.field_spacing)
         check_positive_int("episodes", self.episodes)
         check_int("episode_seed", self.episode_seed)
@@ -86,29 +97,45 @@ class NavigationExperiment:
         self.gradient.validate()
 
 
-def _training_panoramas(
+def _training_run(
     config: NavigationExperiment, nav: Any, camera: Any, progress: bool
-) -> NDArray[np.uint8]:
-    """Panoramas of the free grid positions in Hilbert order."""
+) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
+    """Panoramas of the free grid positions ``(L, H, W, 3)`` and the training run's visiting
+    order ``(T,)`` (indices into them; a walk visits a position more than once)."""
     from tqdm import tqdm
 
-    from sfa_gym.recording.ordering import grid_order
+    from sfa_gym.recording.ordering import edge_walk, grid_order
 
     n = config.train_grid
     positions = nav.grid_positions(n)
     cells = np.stack(np.unravel_index(np.arange(n * n), (n, n)), axis=1)[:, ::-1]  # (i=x, j=y)
     order = grid_order(cells, "hilbert")
-    positions = positions[order]
+    positions, cells = positions[order], cells[order]
     # the env refuses poses closer to an obstacle than the footprint radius; a free cell
     # reaches up to half a cell diagonal closer
     ok = nav.layout.clearance(positions) > nav.rover.footprint_radius
-    positions = positions[nav.occupancy.is_free(positions) & ok]
-    return np.stack(
+    keep = nav.occupancy.is_free(positions) & ok
+    positions, cells = positions[keep], cells[keep]
+    if config.train_order == "hilbert":
+        visits = np.arange(len(positions))
+    else:
+        # a step may not cross a wall thinner than the grid's spacing: its midpoint must be free
+        xmin, xmax, ymin, ymax = nav.arena_bounds
+        dx, dy = (xmax - xmin) / n, (ymax - ymin) / n
+        moves = np.array([(dx, 0.0), (-dx, 0.0), (0.0, dy), (0.0, -dy)])
+        middle = positions[:, None, :] + moves[None] / 2
+        passable = nav.occupancy.is_free(middle.reshape(-1, 2)).reshape(-1, 4)
+        passable &= (nav.layout.clearance(middle.reshape(-1, 2)) > 0).reshape(-1, 4)
+        visits = edge_walk(cells, passable)
+        used = np.unique(visits)  # positions the walk cannot reach are left out
+        positions, visits = positions[used], np.searchsorted(used, visits)
+    panoramas = np.stack(
         [
             camera.reset(options={"pose": (x, y, 0.0)})[0]
             for x, y in tqdm(positions, desc="training run", disable=not progress)
         ]
     )
+    return panoramas, visits
 
 
 def _fit_sfa(
@@ -157,12 +184,39 @@ def _field(
     return field
 
 
+def _embedded_field(base: Any, embedding: Any, path: Path, name: str, weights: NDArray):
+    """The field of :class:`~sfa_gym.features.EmbeddedFeatures` from its base model's field: the
+    embedding of the base's rotation-averaged features at every node (nothing rendered)."""
+    from sfa_gym.navigation.field import FeatureField
+
+    if path.exists():
+        return FeatureField.load(path)
+    ny, nx, k = base.values.shape
+    values = embedding.transform(base.values.reshape(-1, k)).reshape(ny, nx, -1)
+    model_info = {**base.metadata.get("model_info", {}), "method": name}
+    model_info["cost_weights"] = weights.tolist()
+    metadata = {**base.metadata, "model_info": model_info}
+    field = FeatureField(
+        values, base.bounds, free=base.free, metadata=metadata, interpolation=base.interpolation
+    )
+    field.save(path)
+    return field
+
+
 def _controller_entry(episodes: list[dict[str, Any]]) -> dict[str, Any]:
     """A controller's scores and its episodes (paths rounded to mm) for ``results.json``."""
     from sfa_gym.navigation.evaluate import summarize
 
+    summary = summarize(episodes)
+    for group in summary.values():
+        # a group without episodes (no interior pair among a few episodes) has no mean: null in
+        # the JSON, not NaN
+        for score in group.values():
+            if isinstance(score, dict):
+                score["mean"] = None if math.isnan(score["mean"]) else score["mean"]
+                score["ci95"] = [None if math.isnan(v) else v for v in score["ci95"]]
     return {
-        **summarize(episodes),
+        **summary,
         "episodes": [{**e, "path": np.round(e["path"], 3).tolist()} for e in episodes],
     }
 
@@ -183,7 +237,7 @@ def run_navigation_experiment(
 
     from sfa_gym._files import write_json_atomic
     from sfa_gym.experiments.common import fit_method
-    from sfa_gym.features import rotation_averaged_features
+    from sfa_gym.features import EmbeddedFeatures, rotation_averaged_features
     from sfa_gym.navigation.controllers import (
         GradientController,
         OracleController,
@@ -193,6 +247,7 @@ def run_navigation_experiment(
     from sfa_gym.navigation.evaluate import run_episodes
     from sfa_gym.navigation.plots import paths
     from sfa_gym.rotation import Rotation
+    from sfa_gym.sfa.graph import WalkGraphEmbedding
     from sfa_gym.sim.env import OmniRoverEnv
     from sfa_gym.wrappers import GoalFeatureObservation
 
@@ -206,7 +261,8 @@ def run_navigation_experiment(
 
     # renders the training run and the fields (the navigation env has no pose option)
     camera = OmniRoverEnv(nav.world, nav.world_seed, nav.panorama)
-    train = _training_panoramas(config, nav, camera, progress)
+    panoramas, visits = _training_run(config, nav, camera, progress)
+    train = panoramas[visits]  # the training run in time order
     models: dict[str, Any] = {"sfa": _fit_sfa(config, train, out / "sfa_model.npz", progress)}
     for method, _ in methods or []:
         models[method.name] = fit_method(method, train, Rotation())
@@ -214,17 +270,33 @@ def run_navigation_experiment(
     results: dict[str, Any] = {
         "protocol": "navigation",
         "settings": dataclasses.asdict(config),
-        "training_positions": len(train),
+        "training_positions": len(panoramas),
+        "training_visits": len(visits),
         "controllers": {},
     }
     weights: dict[str, NDArray[np.float64]] = {}
-    for name, model in models.items():
-        weights[name] = slowness_weights(
-            rotation_averaged_features(model, train, step=1), config.weight_power
-        )
-        field = _field(
+    fields: dict[str, Any] = {}
+    for name, model in list(models.items()):
+        averages = rotation_averaged_features(model, panoramas, step=1)
+        weights[name] = slowness_weights(averages[visits], config.weight_power)
+        fields[name] = _field(
             camera, nav, model, out / f"field_{name}.npz", config, name, weights[name], progress
         )
+        if config.train_order == "walk":
+            # the slowest functions of the walk's graph, read at a place from the training
+            # places whose features are most like its own
+            graph = f"{name}_graph"
+            embedding = WalkGraphEmbedding(config.sfa.n_outputs).fit(averages, visits)
+            models[graph] = EmbeddedFeatures(model, embedding, graph)
+            weights[graph] = slowness_weights(
+                embedding.transform(averages)[visits], config.weight_power
+            )
+            fields[graph] = _embedded_field(
+                fields[name], embedding, out / f"field_{graph}.npz", graph, weights[graph]
+            )
+    camera.close()
+
+    for name, field in fields.items():
         env = gym.make(config.env_id, world_seed=config.world_seed, feature_field=field)
         runs: list[tuple[str, Any]] = []
         if "gradient" in config.controllers:
@@ -245,16 +317,19 @@ def run_navigation_experiment(
                 fig.savefig(out / f"paths_gradient_{name}.png", dpi=110, bbox_inches="tight")
                 plt.close(fig)
         env.close()
-    camera.close()
 
-    if config.rendered_episodes > 0:
+    rendered = range(config.episode_seed, config.episode_seed + config.rendered_episodes)
+    for name in ("sfa", "sfa_graph"):
+        if config.rendered_episodes <= 0 or name not in models:
+            continue
         env = GoalFeatureObservation(
-            gym.make(config.env_id, world_seed=config.world_seed), models["sfa"]
+            gym.make(config.env_id, world_seed=config.world_seed), models[name]
         )
-        controller = GradientController.for_env(env, weights["sfa"], settings=config.gradient)
-        rendered = range(config.episode_seed, config.episode_seed + config.rendered_episodes)
-        episodes = run_episodes(env, controller, rendered, progress, "gradient on sfa, rendered")
-        results["controllers"]["gradient/sfa/rendered"] = _controller_entry(episodes)
+        controller = GradientController.for_env(env, weights[name], settings=config.gradient)
+        episodes = run_episodes(
+            env, controller, rendered, progress, f"gradient on {name}, rendered"
+        )
+        results["controllers"][f"gradient/{name}/rendered"] = _controller_entry(episodes)
         env.close()
 
     results["seconds"] = round(time.perf_counter() - started, 1)
@@ -293,7 +368,10 @@ def format_navigation_table(results: dict[str, Any]) -> str:
             for key in ("success", "spl"):
                 score = entry[group][key]
                 lo, hi = score["ci95"]
-                cells.append(f"{score['mean']:.2f} ({lo:.2f}-{hi:.2f})")
+                if score["mean"] is None:
+                    cells.append("-")
+                else:
+                    cells.append(f"{score['mean']:.2f} ({lo:.2f}-{hi:.2f})")
         episodes = f"{entry['all']['episodes']} ({entry['interior']['episodes']} interior)"
         lines.append(f"| {name} | " + " | ".join(cells) + f" | {episodes} |")
     return "\n".join(lines)
