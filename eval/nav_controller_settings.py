@@ -53,10 +53,12 @@ def parse_variant(text: str) -> tuple[str, GradientSettings]:
     return name, settings
 
 
-def score(folder: Path, settings: GradientSettings, seeds: range, desc: str) -> dict[str, Any]:
-    """Success and SPL of the controller on ``folder``'s SFA field over ``seeds``."""
+def score(
+    folder: Path, settings: GradientSettings, seeds: range, desc: str, features: str = "sfa"
+) -> dict[str, Any]:
+    """Success and SPL of the controller on ``folder``'s field of ``features`` over ``seeds``."""
     results = json.loads((folder / "results.json").read_text())["settings"]
-    field = FeatureField.load(folder / "field_sfa.npz")
+    field = FeatureField.load(folder / f"field_{features}.npz")
     weights = np.asarray(field.metadata["model_info"]["cost_weights"])
     env = gym.make(results["env_id"], world_seed=results["world_seed"], feature_field=field)
     controller = GradientController.for_env(env, weights, settings=settings)
@@ -79,6 +81,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--nav", type=Path, nargs="+", required=True,
                         help="sfa-gym navigate output folders (with field_sfa.npz)")  # fmt: skip
+    parser.add_argument("--features", default="sfa",
+                        help="the field the controller runs on: field_<features>.npz of each "
+                             "folder (sfa_graph after --train-order walk)")  # fmt: skip
     parser.add_argument("--sets", type=int, nargs="+", default=[1000, 2000],
                         help="first episode seed of each episode set")  # fmt: skip
     parser.add_argument("--episodes", type=int, default=200, help="episodes per set")
@@ -88,17 +93,22 @@ def main() -> None:
     args = parser.parse_args()
     if args.episodes < 1:
         parser.error(f"--episodes must be at least 1, got {args.episodes}")
+    field = f"field_{args.features}.npz"
     for folder in args.nav:
-        if not (folder / "field_sfa.npz").exists() or not (folder / "results.json").exists():
-            parser.error(f"{folder} holds no field_sfa.npz and results.json of sfa-gym navigate")
+        if not (folder / field).exists() or not (folder / "results.json").exists():
+            parser.error(f"{folder} holds no {field} and results.json of sfa-gym navigate")
 
     rows: list[dict[str, Any]] = []
     for name, settings in args.variant:
         for folder in args.nav:
             for first in args.sets:
                 seeds = range(first, first + args.episodes)
-                row = score(folder, settings, seeds, f"{name} {folder.name} {first}")
-                rows.append({"variant": name, "folder": str(folder), "first_seed": first, **row})
+                desc = f"{name} {folder.name} {first}"
+                row = score(folder, settings, seeds, desc, args.features)
+                rows.append(
+                    {"variant": name, "folder": str(folder), "features": args.features,
+                     "first_seed": first, **row}
+                )  # fmt: skip
                 print(
                     f"{name:<12} world {row['world_seed']:>3} seeds {first}+{args.episodes}: "
                     f"success {row['success_all']:.2f} SPL {row['spl_all']:.3f} | interior "
