@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -56,6 +57,11 @@ def test_summary_averages_every_key():
     assert summary["success"]["mean"] == 0.5
     assert summary["spl"]["mean"] == pytest.approx(0.4)
     assert summary["steps"]["mean"] == 40
+    # no episodes (no interior pair among a few): no mean, and null rather than NaN in JSON
+    empty = summarize_episodes([])
+    assert empty["episodes"] == 0
+    assert empty["success"] == {"mean": None, "ci95": [None, None]}
+    assert json.loads(json.dumps(empty, allow_nan=False))["spl"]["mean"] is None
 
 
 def test_odometry_integrates_straight_runs_and_turns():

@@ -207,16 +207,8 @@ def _controller_entry(episodes: list[dict[str, Any]]) -> dict[str, Any]:
     """A controller's scores and its episodes (paths rounded to mm) for ``results.json``."""
     from sfa_gym.navigation.evaluate import summarize
 
-    summary = summarize(episodes)
-    for group in summary.values():
-        # a group without episodes (no interior pair among a few episodes) has no mean: null in
-        # the JSON, not NaN
-        for score in group.values():
-            if isinstance(score, dict):
-                score["mean"] = None if math.isnan(score["mean"]) else score["mean"]
-                score["ci95"] = [None if math.isnan(v) else v for v in score["ci95"]]
     return {
-        **summary,
+        **summarize(episodes),
         "episodes": [{**e, "path": np.round(e["path"], 3).tolist()} for e in episodes],
     }
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -46,10 +45,6 @@ def _field_features(model: Any, panoramas: Any, rows: NDArray[np.intp]) -> NDArr
     if not np.all(np.isfinite(features)):
         raise ValueError(f"model {type(model).__name__} returned non-finite features")
     return features
-
-
-def _mean_or_none(value: Any) -> float | None:
-    return None if value is None or not math.isfinite(value) else float(value)
 
 
 def cached_feature_field(
@@ -226,9 +221,9 @@ def navigation_scores(
         "episodes": every["episodes"],
         "interior": {
             "episodes": interior["episodes"],
-            # no interior episode among them (a small quick size): no mean, not NaN in the JSON
-            "success": _mean_or_none(interior["success"]["mean"]),
-            "spl": _mean_or_none(interior["spl"]["mean"]),
+            # None without an interior episode among them (a small quick size)
+            "success": interior["success"]["mean"],
+            "spl": interior["spl"]["mean"],
         },
         "training_positions": int(len(train)),
         "field_nodes": {"nodes": field.metadata["n_nodes"], "free": field.metadata["n_free"]},

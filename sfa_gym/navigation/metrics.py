@@ -74,13 +74,16 @@ def confidence_interval(
 def summarize_episodes(episodes: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """Mean and 95 % interval of each of :data:`EPISODE_KEYS` over ``episodes``.
 
-    Each episode maps those keys to numbers (``success`` may be a bool).
+    Each episode maps those keys to numbers (``success`` may be a bool). Without episodes (say,
+    no interior pair among a few) a score has no mean: ``None`` and ``[None, None]``, which the
+    JSON files write as null (they refuse NaN).
     """
     summary: dict[str, Any] = {"episodes": len(episodes)}
     for key in EPISODE_KEYS:
         values = np.array([float(e[key]) for e in episodes])
-        summary[key] = {
-            "mean": float(values.mean()) if values.size else float("nan"),
-            "ci95": list(confidence_interval(values)),
-        }
+        summary[key] = (
+            {"mean": float(values.mean()), "ci95": list(confidence_interval(values))}
+            if values.size
+            else {"mean": None, "ci95": [None, None]}
+        )
     return summary
