@@ -55,11 +55,11 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
 import sfa_gym  # noqa: E402
 from sfa_gym._files import write_json_atomic  # noqa: E402
 from sfa_gym.leaderboard.backends import run_tasks  # noqa: E402
-from sfa_gym.leaderboard.cache import RunCache  # noqa: E402
 from sfa_gym.leaderboard.evaluate import Task  # noqa: E402
 from sfa_gym.leaderboard.results import git_commit  # noqa: E402
 from sfa_gym.leaderboard.sweep import run_sweep  # noqa: E402
 from sfa_gym.leaderboard.tracks import list_tracks  # noqa: E402
+from sfa_gym.recording.cache import RunCache  # noqa: E402
 
 BASELINES = ROOT / "baselines"
 

@@ -16,7 +16,7 @@ from sfa_gym.experiments.common import (
     view_features,
 )
 from sfa_gym.experiments.figures import quarter_outputs
-from sfa_gym.experiments.settings import NETWORKS, NetworkName, WeightSharing
+from sfa_gym.protocols.settings import NETWORKS, NetworkName, WeightSharing
 from sfa_gym.rotation import Rotation
 from sfa_gym.sfa.network import WEIGHT_SHARING
 from sfa_gym.sfa.synthetic import synthetic_panoramas

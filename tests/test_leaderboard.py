@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sfa_gym.leaderboard.cache import RunCache, RunRequest
 from sfa_gym.leaderboard.plugins import PluginError, load_method
 from sfa_gym.leaderboard.tracks import TrackError, list_tracks, load_track, track_from_dict
 from sfa_gym.navigation.controllers import GradientSettings
+from sfa_gym.recording.cache import RunCache, RunRequest
 from sfa_gym.recording.drivers import GridPositions
 from sfa_gym.sim.env import OmniRoverEnv
 
@@ -234,7 +234,7 @@ def test_a_fresh_process_whose_first_step_is_the_cache_renders_headless(tmp_path
     # backend is chosen, or MuJoCo stays on GLFW and a headless render fails
     code = (
         "import sys\n"
-        "from sfa_gym.leaderboard.cache import RunCache, RunRequest\n"
+        "from sfa_gym.recording.cache import RunCache, RunRequest\n"
         "from sfa_gym.recording.drivers import GridPositions\n"
         "request = RunRequest(world='paper_sim', world_seed=100, panorama=(8, 24),\n"
         "    driver=GridPositions(n=2, seed=7001, order='raster'), seed=7001)\n"
@@ -255,7 +255,7 @@ def test_the_key_follows_the_code_that_makes_the_pixels(tmp_path, monkeypatch):
     import shutil
 
     import sfa_gym
-    from sfa_gym.leaderboard import cache as cache_module
+    from sfa_gym.recording import cache as cache_module
 
     package = Path(sfa_gym.__file__).parent
     for name in ("sim", "recording", "localization"):
@@ -418,7 +418,7 @@ def obstacles_camera():
 
 
 def test_free_grid_positions_skip_exactly_the_cells_reset_refuses(obstacles_camera):
-    from sfa_gym.leaderboard.poses import FreeGridPositions
+    from sfa_gym.recording.poses import FreeGridPositions
 
     every = GridPositions(n=12, seed=7001, order="hilbert").poses(obstacles_camera)
     free = FreeGridPositions(n=12, seed=7001, order="hilbert").poses(obstacles_camera)

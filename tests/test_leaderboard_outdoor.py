@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from sfa_gym.leaderboard.cache import RunCache, RunRequest
 from sfa_gym.leaderboard.outdoor import ENV_ID, outdoor_requests
 from sfa_gym.leaderboard.tracks import TrackError, list_tracks, track_from_dict
+from sfa_gym.recording.cache import RunCache, RunRequest
 from sfa_gym.recording.outdoor_path import OutdoorPathDriver
 from sfa_gym.sim.camera import MirrorSpec
 from sfa_gym.sim.worlds import load_world_spec

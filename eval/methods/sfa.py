@@ -1,6 +1,6 @@
 """Hierarchical SFA, the paper's method, as a leaderboard plug-in.
 
-The network of :class:`~sfa_gym.experiments.settings.SFASettings` (a preset of
+The network of :class:`~sfa_gym.protocols.settings.SFASettings` (a preset of
 ``sfa_gym.sfa.presets``: converging layers of linear SFA, quadratic expansion, SFA) is fitted
 without labels on every simulated rotation of the training panoramas in visiting order
 (``fit_rotations``: with weights shared along rows, the lower layers are computed once per
@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym.experiments.common import SlowFeatureMethod
-from sfa_gym.experiments.settings import SFASettings
+from sfa_gym.protocols.settings import SFASettings
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym._checks import check_finite, check_int, check_positive_int
-from sfa_gym.experiments.settings import EnvId, check_choice, check_env_id
+from sfa_gym.protocols.settings import EnvId, check_choice, check_env_id
 
 __all__ = ["Record", "panorama_strip"]
 

@@ -6,7 +6,7 @@
 - :mod:`sfa_gym.experiments.outdoor`: the paper's outdoor experiment in the outdoor world
   (dynamics, mirror camera, vibration) and its appearance tracks.
 - :mod:`sfa_gym.experiments.common`: the evaluation loop both share.
-- :mod:`sfa_gym.experiments.settings`: the SFA network's settings, nested in both protocols'.
+- :mod:`sfa_gym.protocols.settings`: the SFA network's settings, nested in both protocols'.
 - :mod:`sfa_gym.experiments.report`, :mod:`sfa_gym.experiments.figures`: what they write.
 """
 
@@ -16,12 +16,12 @@ from sfa_gym.experiments.common import SlowFeatureMethod, evaluate_methods
 from sfa_gym.experiments.grid import PAPER_SIM_RESULTS, GridExperiment, run_grid_experiment
 from sfa_gym.experiments.outdoor import OutdoorExperiment, run_outdoor_experiment
 from sfa_gym.experiments.report import format_table
-from sfa_gym.experiments.settings import SFASettings
 from sfa_gym.experiments.trajectory import (
     PAPER_OUTDOOR_RESULTS,
     TrajectoryExperiment,
     run_trajectory_experiment,
 )
+from sfa_gym.protocols.settings import SFASettings
 
 __all__ = [
     "PAPER_OUTDOOR_RESULTS",

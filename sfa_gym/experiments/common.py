@@ -19,9 +19,9 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from sfa_gym.experiments.report import mae_dict
-from sfa_gym.experiments.settings import SFASettings
 from sfa_gym.localization import eta_phi, eta_r, fit_predict, mae, make_regressor
 from sfa_gym.localization.methods import FeatureMethod
+from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.rotation import Rotation
 from sfa_gym.sfa import HierarchicalSFA
 

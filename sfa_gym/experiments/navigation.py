@@ -32,8 +32,8 @@ from numpy.typing import NDArray
 
 from sfa_gym._checks import check_int, check_positive, check_positive_int
 from sfa_gym.experiments.report import check_out_folder
-from sfa_gym.experiments.settings import EnvId, SFASettings, check_env_id
 from sfa_gym.navigation.controllers import GradientSettings
+from sfa_gym.protocols.settings import EnvId, SFASettings, check_env_id
 
 __all__ = ["NavigationExperiment", "format_navigation_table", "run_navigation_experiment"]
 

@@ -54,12 +54,12 @@ from sfa_gym.experiments.common import (
     view_features,
 )
 from sfa_gym.experiments.report import check_out_folder, mae_dict, results_header, write_results
-from sfa_gym.experiments.settings import SFASettings, check_choice
 from sfa_gym.experiments.trajectory import PAPER_OUTDOOR_RESULTS
 from sfa_gym.geometry import in_rectangle
 from sfa_gym.localization import fit_predict, mae, make_regressor, predict_locations
 from sfa_gym.localization.appearance import Normalisation, normalise_panoramas
 from sfa_gym.localization.methods import FeatureMethod
+from sfa_gym.protocols.settings import SFASettings, check_choice
 from sfa_gym.rotation import Rotation, check_step, spread_indices
 
 __all__ = [

@@ -2,20 +2,20 @@
 
 - :mod:`~sfa_gym.leaderboard.tracks`: track files (``eval/tracks/*.json``), loaded and checked.
 - :mod:`~sfa_gym.leaderboard.plugins`: methods loaded by path (the plug-in protocol).
-- :mod:`~sfa_gym.leaderboard.cache`: the shared render cache.
+- :mod:`~sfa_gym.recording.cache`: the shared render cache.
 - :mod:`~sfa_gym.leaderboard.evaluate`: one (track, method, world seed) task.
 - :mod:`~sfa_gym.leaderboard.outdoor`: the outdoor tracks (the paper's outdoor protocol, the
   appearance tracks), their runs from the cache.
 - :mod:`~sfa_gym.leaderboard.navigation`: the navigation tasks, their feature fields from the
-  cache; :mod:`~sfa_gym.leaderboard.poses`: the pose sets rendered in worlds with obstacles.
+  cache; :mod:`~sfa_gym.recording.poses`: the pose sets rendered in worlds with obstacles.
 - :mod:`~sfa_gym.leaderboard.backends`: running the tasks locally or on Ray.
 - :mod:`~sfa_gym.leaderboard.results`: result files with provenance and intervals; the table.
 """
 
 from __future__ import annotations
 
-from sfa_gym.leaderboard.cache import RunCache, RunRequest
 from sfa_gym.leaderboard.tracks import DEVELOPMENT_SEEDS, Track, TrackError, list_tracks, load_track
+from sfa_gym.recording.cache import RunCache, RunRequest
 
 __all__ = [
     "DEVELOPMENT_SEEDS",

@@ -7,7 +7,7 @@ returns the task's scores as JSON types. The evaluations reuse the protocols' co
 rotated views of the training panoramas in visiting order, the same regressions and MAE; the
 outdoor tracks are in :mod:`~sfa_gym.leaderboard.outdoor`, navigation in
 :mod:`~sfa_gym.leaderboard.navigation`. Rendered runs come from the shared
-:class:`~sfa_gym.leaderboard.cache.RunCache`.
+:class:`~sfa_gym.recording.cache.RunCache`.
 
 Every localization score is the mean of the x and y MAE in % of the test positions' coordinate
 range (lower is better); the navigation score is the success rate (higher is better).
@@ -24,9 +24,9 @@ import numpy as np
 from numpy.typing import NDArray
 from threadpoolctl import threadpool_limits
 
-from sfa_gym.leaderboard.cache import RunCache, RunRequest
 from sfa_gym.leaderboard.plugins import load_method
 from sfa_gym.leaderboard.tracks import Track, load_track
+from sfa_gym.recording.cache import RunCache, RunRequest
 
 __all__ = ["HIGHER_IS_BETTER", "Task", "run_task"]
 

@@ -8,8 +8,8 @@ replaces rendering, and the gradient controller runs the track's fixed episodes.
 success rate over all episodes (higher is better), with SPL beside it.
 
 Both the training grid and the field's nodes are rendered through the shared render cache
-(:class:`~sfa_gym.leaderboard.poses.FreeGridPositions`,
-:class:`~sfa_gym.leaderboard.poses.FieldNodes`): the panoramas do not depend on the method, so
+(:class:`~sfa_gym.recording.poses.FreeGridPositions`,
+:class:`~sfa_gym.recording.poses.FieldNodes`): the panoramas do not depend on the method, so
 every method scored on a world reuses them and only computes its own features.
 """
 
@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym.leaderboard.cache import RunCache, RunRequest
-from sfa_gym.leaderboard.poses import FieldNodes, FreeGridPositions, field_axes
+from sfa_gym.recording.cache import RunCache, RunRequest
+from sfa_gym.recording.poses import FieldNodes, FreeGridPositions, field_axes
 
 __all__ = ["cached_feature_field", "navigation_scores"]
 

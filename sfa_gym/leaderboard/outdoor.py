@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from sfa_gym.leaderboard.cache import RunCache, RunRequest
+from sfa_gym.recording.cache import RunCache, RunRequest
 
 __all__ = ["ENV_ID", "PARAMS", "outdoor_config", "outdoor_requests", "outdoor_scores"]
 
