@@ -9,13 +9,9 @@ import numpy as np
 import pytest
 
 from sfa_gym.experiments import GridExperiment, SFASettings, TrajectoryExperiment
-from sfa_gym.experiments.common import (
-    SlowFeatureMethod,
-    evaluate_methods,
-    fit_method,
-    view_features,
-)
+from sfa_gym.experiments.common import SlowFeatureMethod, evaluate_methods
 from sfa_gym.experiments.figures import quarter_outputs
+from sfa_gym.protocols.features import fit_method, view_features
 from sfa_gym.protocols.settings import NETWORKS, NetworkName, WeightSharing
 from sfa_gym.rotation import Rotation
 from sfa_gym.sfa.network import WEIGHT_SHARING

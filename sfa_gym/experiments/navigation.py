@@ -228,7 +228,6 @@ def run_navigation_experiment(
     import matplotlib.pyplot as plt
 
     from sfa_gym._files import write_json_atomic
-    from sfa_gym.experiments.common import fit_method
     from sfa_gym.features import EmbeddedFeatures, rotation_averaged_features
     from sfa_gym.navigation.controllers import (
         GradientController,
@@ -238,6 +237,7 @@ def run_navigation_experiment(
     )
     from sfa_gym.navigation.evaluate import run_episodes
     from sfa_gym.navigation.plots import paths
+    from sfa_gym.protocols.features import fit_method
     from sfa_gym.rotation import Rotation
     from sfa_gym.sfa.graph import WalkGraphEmbedding
     from sfa_gym.sim.env import OmniRoverEnv

@@ -45,20 +45,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym._checks import check_int, check_positive_int, is_number
-from sfa_gym.experiments.common import (
-    FIGURE_REGRESSOR,
-    fit_method,
-    full_width,
-    invariance_entry,
-    methods_with_sfa,
-    view_features,
-)
+from sfa_gym.experiments.common import FIGURE_REGRESSOR, methods_with_sfa
 from sfa_gym.experiments.report import check_out_folder, mae_dict, results_header, write_results
 from sfa_gym.experiments.trajectory import PAPER_OUTDOOR_RESULTS
 from sfa_gym.geometry import in_rectangle
 from sfa_gym.localization import fit_predict, mae, make_regressor, predict_locations
 from sfa_gym.localization.appearance import Normalisation, normalise_panoramas
 from sfa_gym.localization.methods import FeatureMethod
+from sfa_gym.protocols.features import fit_method, full_width, invariance_entry, view_features
 from sfa_gym.protocols.settings import SFASettings, check_choice
 from sfa_gym.rotation import Rotation, check_step, spread_indices
 

@@ -101,8 +101,8 @@ def _grid_run(
 def _grid_scores(
     track: Track, params: Mapping[str, Any], world_seed: int, method: Any, cache: RunCache
 ) -> dict[str, Any]:
-    from sfa_gym.experiments.common import fit_method, view_features
     from sfa_gym.localization import fit_predict, mae, make_regressor, random_split_mae
+    from sfa_gym.protocols.features import fit_method, view_features
     from sfa_gym.rotation import Rotation
 
     rotation = Rotation(step=params["step"])
@@ -147,10 +147,10 @@ def _grid_scores(
 def _region_scores(
     track: Track, params: Mapping[str, Any], world_seed: int, method: Any, cache: RunCache
 ) -> dict[str, Any]:
-    from sfa_gym.experiments.common import fit_method, view_features
     from sfa_gym.experiments.trajectory import TrajectoryExperiment, trajectory_drivers
     from sfa_gym.geometry import in_rectangle
     from sfa_gym.localization import fit_predict, mae, make_regressor
+    from sfa_gym.protocols.features import fit_method, view_features
     from sfa_gym.rotation import Rotation, spread_indices
 
     config = TrajectoryExperiment(

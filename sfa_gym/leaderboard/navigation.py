@@ -152,7 +152,6 @@ def navigation_scores(
     (``params.controller``). Either sees only the rover's own sensors in ``info``."""
     import gymnasium as gym
 
-    from sfa_gym.experiments.common import fit_method
     from sfa_gym.features import rotation_averaged_features
     from sfa_gym.navigation.controllers import (
         GradientController,
@@ -161,6 +160,7 @@ def navigation_scores(
     )
     from sfa_gym.navigation.evaluate import run_episodes, summarize
     from sfa_gym.navigation.plugins import Rover, SensorsOnly, load_controller_file
+    from sfa_gym.protocols.features import fit_method
     from sfa_gym.rotation import Rotation
 
     panorama = (int(params["panorama"][0]), int(params["panorama"][1]))

@@ -136,7 +136,7 @@ def outdoor_requests(track: Any, params: Mapping[str, Any], world_seed: int) -> 
 def _fit(method: Any, train_pan: np.ndarray, config: Any, windows: np.ndarray) -> Any:
     """``method`` fitted on the training frames as the outdoor experiment fits it (see the
     module docstring)."""
-    from sfa_gym.experiments.common import fit_method
+    from sfa_gym.protocols.features import fit_method
 
     rotation = config.rotation
     if hasattr(method, "fit_rotations"):
@@ -162,9 +162,9 @@ def outdoor_scores(
         ``visited``: MAE in m and % per axis, as the outdoor experiment reports them),
         ``regressor``, ``n_features``, ``frames`` and the cache keys of the runs.
     """
-    from sfa_gym.experiments.common import view_features
     from sfa_gym.experiments.outdoor import condition_scores, test_sets
     from sfa_gym.localization import make_regressor, predict_locations
+    from sfa_gym.protocols.features import view_features
     from sfa_gym.recording.outdoor_path import south_west
     from sfa_gym.rotation import spread_indices
 
