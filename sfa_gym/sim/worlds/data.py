@@ -1,17 +1,12 @@
-"""Where the environment data (world specs) is found."""
+"""Where the world specs are found (:func:`sfa_gym.data.data_folder`, kind ``"envs"``)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from sfa_gym.data import data_folder
+
 
 def envs_dir() -> Path:
-    """Directory with the world specs: inside the installed wheel, or ``envs/`` of a checkout."""
-    package = Path(__file__).resolve().parents[2]  # .../sfa_gym
-    for candidate in (package / "envs_data", package.parent / "envs"):
-        if candidate.is_dir():
-            return candidate
-    raise FileNotFoundError(
-        f"sfa_gym's environment data is missing: neither {package / 'envs_data'} nor "
-        f"{package.parent / 'envs'} exists; reinstall the package"
-    )
+    """Directory with the world specs: ``envs/`` of a checkout, or the installed wheel's copy."""
+    return data_folder("envs")
