@@ -16,6 +16,7 @@ from sfa_gym.recording.drivers import (
     RandomWalkDriver,
     WaypointDriver,
 )
+from sfa_gym.sim.steering import Steering
 
 BOUNDS = (-3.0, 3.0, -3.0, 3.0)
 DT = 0.1
@@ -66,7 +67,7 @@ def travel(poses):
 
 
 def test_lawn_mower_covers_the_arena_within_the_speed_limits():
-    driver = LawnMowerDriver(spacing=0.5, speed=0.4, turn_rate=1.0)
+    driver = LawnMowerDriver(spacing=0.5, steering=Steering(speed=0.4, turn_rate=1.0))
     poses, actions = simulate(driver)
     assert driver.done
     assert visited_cells(poses).all()  # every cell of a 6 x 6 grid of 1 m cells
@@ -122,7 +123,7 @@ def test_training_sweep_never_enters_the_excluded_region_and_test_loop_does(excl
 
 def test_waypoint_driver_reaches_its_points_in_order():
     points = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (-1.0, 0.5)]
-    driver = WaypointDriver(points, tolerance=0.05)
+    driver = WaypointDriver(points, steering=Steering(tolerance=0.05))
     poses, _ = simulate(driver)
     assert driver.done and driver.start_pose == (0.0, 0.0, 0.0)
     first_close = [np.flatnonzero(np.hypot(*(poses[:, :2] - p).T) < 0.1)[0] for p in points]
@@ -159,9 +160,9 @@ def test_driver_arguments_are_checked():
         (LawnMowerDriver(clearance=-0.1), "clearance"),
         (LawnMowerDriver(exclude=(0.0, math.nan, 0.0, 1.0)), "exclude"),
         (LawnMowerDriver(exclude=(1.0, 0.0, 0.0, 1.0)), "exclude"),
-        (LawnMowerDriver(speed=math.nan), "speed"),
+        (LawnMowerDriver(steering=Steering(speed=math.nan)), "speed"),
         (LoopDriver(insets=(0.5, math.nan)), "inset"),
-        (LoopDriver(turn_rate=0.0), "turn_rate"),
+        (LoopDriver(steering=Steering(turn_rate=0.0)), "turn_rate"),
         (RandomWalkDriver(turn_probability=math.nan), "turn_probability"),
         (RandomWalkDriver(margin=math.nan), "margin"),
     ],
@@ -176,16 +177,23 @@ def test_infinite_bounds_are_refused():
         RandomWalkDriver().reset((-math.inf, 3.0, -3.0, 3.0))
 
 
-def test_steering_arguments_are_stored_by_the_base_class():
+def test_every_waypoint_driver_takes_one_steering_setting():
+    steering = Steering(speed=0.3, turn_rate=0.7, tolerance=0.2, turn_in_place=0.4)
     for cls in (WaypointDriver, LawnMowerDriver, LoopDriver):
-        driver = cls(speed=0.3, turn_rate=0.7, tolerance=0.2, turn_in_place=0.4)
-        params = driver.get_params()
-        assert {k: params[k] for k in ("speed", "turn_rate", "tolerance", "turn_in_place")} == {
+        driver = cls(steering=steering)
+        assert driver.get_params()["steering"] == steering
+        # a run's header holds the setting as plain JSON types
+        assert driver.describe()["steering"] == {
             "speed": 0.3,
             "turn_rate": 0.7,
             "tolerance": 0.2,
             "turn_in_place": 0.4,
         }
+
+
+def test_a_steering_setting_that_is_not_one_is_named():
+    with pytest.raises(TypeError, match="steering"):
+        WaypointDriver([(0.0, 0.0), (1.0, 0.0)], steering={"speed": 0.3}).reset(BOUNDS)
 
 
 def test_describe_reports_the_arguments():
@@ -282,7 +290,7 @@ def _drive(env, driver, n, seed=0, pose=None):
 
 
 def test_lawn_mower_drives_the_real_rover_along_its_first_row(env):
-    driver = LawnMowerDriver(spacing=1.0, pattern="rows", speed=0.4)
+    driver = LawnMowerDriver(spacing=1.0, pattern="rows", steering=Steering(speed=0.4))
     poses = _drive(env, driver, n=40)
     (x0, y0), (x1, y1) = driver.path()[:2]
     assert (x0, y0) == pytest.approx(poses[0, :2], abs=1e-6) and y1 == y0 and x1 > x0

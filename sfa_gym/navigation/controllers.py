@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from sfa_gym._checks import check_finite, check_int, check_positive, check_positive_int
 from sfa_gym.geometry import wrap_angle
 from sfa_gym.navigation.feature_gradient import LocalLinearFit, gauss_newton_step, slowness_weights
-from sfa_gym.recording.drivers import WaypointDriver
+from sfa_gym.sim.steering import Goto, Steering, WaypointFollower
 
 __all__ = [
     "Controller",
@@ -416,7 +416,7 @@ class OracleController:
     """Upper bound: drives the geodesic shortest path with the ground-truth pose and stops at the
     goal. It reads ``info["x"]``, ``"y"``, ``"yaw"`` and ``"goal"``, and the occupancy grid: a
     map and ground truth no real rover has. The path's corners are the waypoints of a
-    :class:`~sfa_gym.recording.drivers.WaypointDriver`, the closed-loop steering the scripted
+    :class:`~sfa_gym.sim.steering.WaypointFollower`, the closed-loop steering the scripted
     recordings use.
 
     Args:
@@ -447,17 +447,14 @@ class OracleController:
     def reset(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> None:
         self._goal = np.asarray(info["goal"], dtype=np.float64)[:2]
         path = self.occupancy.geodesic(self._goal).path(np.array([info["x"], info["y"]]))
-        self._driver = WaypointDriver(
-            [tuple(p) for p in path], speed=self.v_max, turn_rate=self.w_max,
-            tolerance=self.stop_radius,
-        )  # fmt: skip
-        self._driver.reset(self.occupancy.bounds, dt=self.dt)
+        steering = Steering(speed=self.v_max, turn_rate=self.w_max, tolerance=self.stop_radius)
+        self._follower = WaypointFollower([Goto(*map(float, p)) for p in path], steering, self.dt)
 
     def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[np.float32]:
         here = np.array([info["x"], info["y"]])
-        if self._driver.done or np.linalg.norm(here - self._goal) <= self.stop_radius:
+        if self._follower.done or np.linalg.norm(here - self._goal) <= self.stop_radius:
             return np.array([0.0, 0.0, 1.0], dtype=np.float32)
-        v, w = self._driver(info)
+        v, w = self._follower.act(float(info["x"]), float(info["y"]), float(info["yaw"]))
         return np.array([v, w, -1.0], dtype=np.float32)
 
 

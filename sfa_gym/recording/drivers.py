@@ -1,7 +1,7 @@
 """Scripted drivers: the trajectories along which training and test runs are recorded.
 
-(Longer than 500 lines on purpose: the drivers share one base class, one steering controller
-and its arguments, and are read side by side when choosing a training or test trajectory.)
+(Longer than 500 lines on purpose: the drivers share one base class and are read side by side
+when choosing a training or test trajectory; their steering is :mod:`sfa_gym.sim.steering`.)
 
 A driver steers the rover in closed loop. :meth:`Driver.reset` gives it the drivable area
 ``bounds = (xmin, xmax, ymin, ymax)`` (metres, e.g. ``env.get_wrapper_attr("arena_bounds")``),
@@ -26,11 +26,11 @@ env's default start).
 
 from __future__ import annotations
 
+import dataclasses
 import heapq
 import inspect
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -40,6 +40,7 @@ from sfa_gym._checks import check_finite, check_positive, is_number
 from sfa_gym._types import Pose
 from sfa_gym.geometry import Rectangle, check_rectangle, grow_rectangle, wrap_angle
 from sfa_gym.recording.ordering import grid_order
+from sfa_gym.sim.steering import DEFAULT_STEERING, Goto, Spin, Steering, WaypointFollower, action
 
 __all__ = [
     "Bounds",
@@ -47,6 +48,7 @@ __all__ = [
     "Driver",
     "Goto",
     "Spin",
+    "Steering",
     "WaypointDriver",
     "LawnMowerDriver",
     "LoopDriver",
@@ -79,8 +81,7 @@ def _pose(info: Mapping[str, Any]) -> tuple[float, float, float]:
         ) from None
 
 
-def _action(v: float, w: float) -> NDArray[np.float32]:
-    return np.array([v, w], dtype=np.float32)
+_action = action
 
 
 class Driver:
@@ -129,8 +130,13 @@ class Driver:
         return {name: getattr(self, name) for name in names}
 
     def describe(self) -> dict[str, Any]:
-        """``{"type": class name, **constructor arguments}``, stored in a run's header."""
-        return {"type": type(self).__name__, **self.get_params()}
+        """``{"type": class name, **constructor arguments}`` in JSON types (settings such as
+        :class:`~sfa_gym.sim.steering.Steering` as dicts), stored in a run's header."""
+        params = {
+            k: dataclasses.asdict(v) if dataclasses.is_dataclass(v) else v
+            for k, v in self.get_params().items()
+        }
+        return {"type": type(self).__name__, **params}
 
     def _start(self) -> None:
         raise NotImplementedError
@@ -142,85 +148,38 @@ class Driver:
 # --------------------------------------------------------------------------- waypoints
 
 
-@dataclass(frozen=True)
-class Goto:
-    """Drive to the point ``(x, y)`` (metres)."""
-
-    x: float
-    y: float
-
-
-@dataclass(frozen=True)
-class Spin:
-    """Rotate on the spot by ``angle`` radians (counter-clockwise if positive)."""
-
-    angle: float
-
-
 class WaypointDriver(Driver):
-    """Follow a list of :class:`Goto` and :class:`Spin` segments in closed loop.
-
-    Controller: with heading error ``e`` towards the next point, the rover turns on the spot
-    while ``|e| > turn_in_place`` (rad), otherwise drives at ``v = speed * cos(e)`` (slowing
-    down to a quarter of that in the last ``speed / 2`` metres) and steers with
-    ``w = clip(2 e, -turn_rate, turn_rate)``. A point counts as reached within ``tolerance``
-    metres, or when the rover has passed it (closer than ``3 * tolerance`` and beyond it along
-    the segment), so that lag in the dynamics never makes it circle a waypoint. A segment not
-    finished within three times its nominal duration plus 5 s (the rover is stuck, e.g. against
-    an obstacle) is given up and counted in ``skipped_``, so that every drive ends.
+    """Follow a list of :class:`~sfa_gym.sim.steering.Goto` and
+    :class:`~sfa_gym.sim.steering.Spin` segments in closed loop, with the waypoint controller of
+    :class:`~sfa_gym.sim.steering.WaypointFollower` (segments the rover is stuck on are given
+    up and counted in ``skipped_``, so that every drive ends).
 
     Args:
         waypoints: segments, in order; a bare ``(x, y)`` pair means ``Goto(x, y)``. The start
             pose is the first point, facing the second.
-        speed: cruise speed (m/s); never exceeded.
-        turn_rate: largest turn rate (rad/s); never exceeded.
-        tolerance: reach radius (m).
-        turn_in_place: heading error (rad) above which the rover stops and turns.
+        steering: the controller's limits and tolerances.
     """
 
     def __init__(
         self,
         waypoints: Sequence[Goto | Spin | tuple[float, float]] = (),
         *,
-        speed: float = 0.4,
-        turn_rate: float = 1.0,
-        tolerance: float = 0.1,
-        turn_in_place: float = 0.5,
+        steering: Steering = DEFAULT_STEERING,
     ) -> None:
         self.waypoints = waypoints
-        self._steer(
-            speed=speed, turn_rate=turn_rate, tolerance=tolerance, turn_in_place=turn_in_place
-        )
-
-    def _steer(
-        self, *, speed: float, turn_rate: float, tolerance: float, turn_in_place: float
-    ) -> None:
-        """Store the steering arguments that every waypoint driver takes (checked on reset).
-
-        Subclasses repeat them in their signatures, as scikit-learn estimators do, so that
-        :meth:`get_params` and ``help()`` see every argument, and store them here.
-        """
-        self.speed = speed
-        self.turn_rate = turn_rate
-        self.tolerance = tolerance
-        self.turn_in_place = turn_in_place
+        self.steering = steering
 
     def _plan(self) -> list[Goto | Spin]:
         return [w if isinstance(w, Goto | Spin) else Goto(*map(float, w)) for w in self.waypoints]
 
     def _start(self) -> None:
-        for name in ("speed", "turn_rate", "tolerance", "turn_in_place"):
-            check_positive(name, getattr(self, name))
+        if not isinstance(self.steering, Steering):
+            raise TypeError(f"steering must be a Steering, got {self.steering!r}")
+        self.steering.validate()
         self.plan_ = self._plan()
         if not self.plan_:
             raise ValueError(f"{type(self).__name__} has no waypoints to follow in {self.bounds_}")
-        self.index_ = 0
-        self.skipped_ = 0
-        self._steps = 0
-        self._budget = math.inf
-        self._spun = 0.0
-        self._last_yaw: float | None = None
-        self._origin: tuple[float, float] | None = None
+        self._follower = WaypointFollower(self.plan_, self.steering, self.dt_)
         gotos = [s for s in self.plan_ if isinstance(s, Goto)]
         self.start_pose = None
         if gotos:
@@ -232,70 +191,19 @@ class WaypointDriver(Driver):
 
     @property
     def done(self) -> bool:
-        return hasattr(self, "plan_") and self.index_ >= len(self.plan_)
+        return hasattr(self, "_follower") and self._follower.done
+
+    @property
+    def skipped_(self) -> int:
+        """Segments given up because the rover got stuck on them."""
+        return self._follower.skipped
 
     def path(self) -> NDArray[np.float64]:
         """The planned points, ``(M, 2)`` metres (spins omitted); available after ``reset``."""
         return np.array([(s.x, s.y) for s in self.plan_ if isinstance(s, Goto)], dtype=np.float64)
 
-    def _advance(self, x: float, y: float) -> None:
-        self.index_ += 1
-        self._steps = 0
-        self._spun = 0.0
-        self._last_yaw = None
-        self._origin = (x, y)
-
     def _act(self, x: float, y: float, yaw: float) -> NDArray[np.float32]:
-        while self.index_ < len(self.plan_):
-            segment = self.plan_[self.index_]
-            if self._steps == 0:
-                self._budget = self._nominal_seconds(segment, x, y) * 3.0 + 5.0
-            self._steps += 1
-            if self._steps * self.dt_ > self._budget:
-                self.skipped_ += 1
-                self._advance(x, y)
-                continue
-            action = (
-                self._spin(segment, yaw)
-                if isinstance(segment, Spin)
-                else self._goto(segment, x, y, yaw)
-            )
-            if action is not None:
-                return action
-            self._advance(x, y)
-        return _action(0.0, 0.0)
-
-    def _nominal_seconds(self, segment: Goto | Spin, x: float, y: float) -> float:
-        if isinstance(segment, Spin):
-            return abs(segment.angle) / self.turn_rate
-        return math.dist((x, y), (segment.x, segment.y)) / self.speed + math.pi / self.turn_rate
-
-    def _spin(self, segment: Spin, yaw: float) -> NDArray[np.float32] | None:
-        if self._last_yaw is not None:
-            self._spun += wrap_angle(yaw - self._last_yaw)
-        self._last_yaw = yaw
-        remaining = abs(segment.angle) - math.copysign(1.0, segment.angle) * self._spun
-        if remaining <= 0.05:
-            return None
-        rate = min(self.turn_rate, max(0.3 * self.turn_rate, 2.0 * remaining))
-        return _action(0.0, math.copysign(rate, segment.angle))
-
-    def _goto(self, segment: Goto, x: float, y: float, yaw: float) -> NDArray[np.float32] | None:
-        dx, dy = segment.x - x, segment.y - y
-        distance = math.hypot(dx, dy)
-        if distance < self.tolerance:
-            return None
-        if self._origin is not None and distance < 3.0 * self.tolerance:
-            ox, oy = self._origin
-            if dx * (segment.x - ox) + dy * (segment.y - oy) < 0.0:
-                return None  # passed it
-        error = wrap_angle(math.atan2(dy, dx) - yaw)
-        w = float(np.clip(2.0 * error, -self.turn_rate, self.turn_rate))
-        if abs(error) > self.turn_in_place:
-            # too slow a turn on the spot would never finish against friction
-            return _action(0.0, math.copysign(max(abs(w), 0.3 * self.turn_rate), error))
-        v = self.speed * math.cos(error) * min(1.0, max(0.25, 2.0 * distance / self.speed))
-        return _action(v, w)
+        return self._follower.act(x, y, yaw)
 
 
 # ---------------------------------------------------------------- obstacle-free routing
@@ -380,7 +288,7 @@ class LawnMowerDriver(WaypointDriver):
         exclude: rectangle ``(xmin, xmax, ymin, ymax)`` (m) the rover never enters (widened by
             ``clearance``): rows are cut there and the path goes around it.
         clearance: extra distance kept from ``exclude`` (m).
-        speed, turn_rate, tolerance, turn_in_place: see :class:`WaypointDriver`.
+        steering: the waypoint controller's limits and tolerances.
     """
 
     def __init__(
@@ -393,14 +301,9 @@ class LawnMowerDriver(WaypointDriver):
         spin: float = 0.0,
         exclude: tuple[float, float, float, float] | None = None,
         clearance: float = 0.3,
-        speed: float = 0.4,
-        turn_rate: float = 1.0,
-        tolerance: float = 0.1,
-        turn_in_place: float = 0.5,
+        steering: Steering = DEFAULT_STEERING,
     ) -> None:
-        self._steer(
-            speed=speed, turn_rate=turn_rate, tolerance=tolerance, turn_in_place=turn_in_place
-        )
+        self.steering = steering
         self.spacing = spacing
         self.margin = margin
         self.offset = offset
@@ -494,7 +397,7 @@ class LoopDriver(WaypointDriver):
         insets: distance of each loop from the bounds (m), driven in this order.
         clockwise: direction of the loops.
         laps: number of times the whole set of loops is driven.
-        speed, turn_rate, tolerance, turn_in_place: see :class:`WaypointDriver`.
+        steering: the waypoint controller's limits and tolerances.
     """
 
     def __init__(
@@ -503,14 +406,9 @@ class LoopDriver(WaypointDriver):
         *,
         clockwise: bool = False,
         laps: int = 1,
-        speed: float = 0.4,
-        turn_rate: float = 1.0,
-        tolerance: float = 0.1,
-        turn_in_place: float = 0.5,
+        steering: Steering = DEFAULT_STEERING,
     ) -> None:
-        self._steer(
-            speed=speed, turn_rate=turn_rate, tolerance=tolerance, turn_in_place=turn_in_place
-        )
+        self.steering = steering
         self.insets = insets
         self.clockwise = clockwise
         self.laps = laps
