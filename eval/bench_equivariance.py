@@ -263,7 +263,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--positions", type=int, default=6, help="positions of the pixel part")
     parser.add_argument("--png", type=Path, default=None, help="write the figure here")
     parser.add_argument(
-        "--json", type=Path, default=ROOT / "eval" / "results" / "equivariance.json"
+        "--json", type=Path, default=ROOT / "published" / "studies" / "equivariance.json"
     )
     parser.add_argument("--no-features", action="store_true", help="skip the feature part")
     args = parser.parse_args(argv)

@@ -34,7 +34,7 @@ Usage (from the repository root)::
     .venv/bin/python eval/bench_field.py            # full, ~4 min on 2 cores
     .venv/bin/python eval/bench_field.py --quick    # smoke run, ~40 s
 
-Writes ``eval/results/field.json`` (``--json``) and prints a table.
+Writes ``published/benchmarks/field.json`` (``--json``) and prints a table.
 """
 
 from __future__ import annotations
@@ -322,7 +322,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--poses", type=int, default=None, help="random poses (200; quick 40)")
     parser.add_argument("--headings", type=int, default=None, help="headings per pose (8; 4)")
     parser.add_argument("--seed", type=int, default=1, help="seed of the random poses")
-    parser.add_argument("--json", type=Path, default=ROOT / "eval" / "results" / "field.json")
+    parser.add_argument(
+        "--json", type=Path, default=ROOT / "published" / "benchmarks" / "field.json"
+    )
     args = parser.parse_args(argv)
     if args.quick:
         settings, grid, n_train, spacings = SFASettings(node_dim=16), 12, 100, [0.1]

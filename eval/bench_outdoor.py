@@ -46,7 +46,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=40, help="steps per batch")
     parser.add_argument("--repeats", type=int, default=5, help="interleaved batches per env")
-    parser.add_argument("--out", type=Path, default=Path("eval/results/outdoor.json"))
+    parser.add_argument("--out", type=Path, default=Path("published/benchmarks/outdoor.json"))
     args = parser.parse_args()
     if args.steps < 1 or args.repeats < 1:
         parser.error(f"--steps and --repeats must be >= 1, got {args.steps}, {args.repeats}")

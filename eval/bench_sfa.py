@@ -30,7 +30,7 @@ Usage (from the repository root)::
     .venv/bin/python eval/bench_sfa.py --frames 200 --test-frames 50 --locations 40 \
         --rotation-locations 4  # smoke
 
-Writes ``eval/results/bench_sfa.json`` (``--json``) and prints a table.
+Writes ``published/benchmarks/bench_sfa.json`` (``--json``) and prints a table.
 """
 
 from __future__ import annotations
@@ -114,7 +114,7 @@ class BenchConfig:
     skip_mdp: bool = False
     skip_rotations: bool = False
     skip_paper: bool = False
-    json_path: str = str(ROOT / "eval" / "results" / "bench_sfa.json")
+    json_path: str = str(ROOT / "published" / "benchmarks" / "bench_sfa.json")
 
 
 # -- data ---------------------------------------------------------------------------------------
