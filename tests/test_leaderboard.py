@@ -60,7 +60,7 @@ def _write_track(folder: Path, data: dict) -> Path:
 
 
 def test_shipped_tracks_load_and_stay_clear_of_development_seeds():
-    tracks = {t.name: t for t in list_tracks(ROOT / "eval" / "tracks")}
+    tracks = {t.name: t for t in list_tracks(ROOT / "tracks")}
     assert {"paper_sim_parity", "train_test", "few_labels", "unvisited_region"} <= set(tracks)
     assert {"unseen_worlds", "nav_open", "nav_obstacles", "nav_maze"} <= set(tracks)
     assert tracks["few_labels"].params["labels"] == [12, 25, 50]
@@ -88,7 +88,7 @@ def test_bad_track_is_refused_naming_the_value(change, message):
 
 
 def test_navigation_episode_seeds_must_avoid_the_readme_episodes():
-    data = json.loads((ROOT / "eval" / "tracks" / "nav_open.json").read_text())
+    data = json.loads((ROOT / "tracks" / "nav_open.json").read_text())
     data["params"]["episode_seed"] = 950  # episodes 950..1049 reach the README's 1000-1099
     with pytest.raises(TrackError, match="params.episode_seed 1000 is a development seed"):
         track_from_dict(data, "nav_open.json")
@@ -103,7 +103,7 @@ def test_navigation_episode_seeds_must_avoid_the_readme_episodes():
     ],
 )
 def test_navigation_tracks_fix_every_controller_setting(change, message):
-    data = json.loads((ROOT / "eval" / "tracks" / "nav_open.json").read_text())
+    data = json.loads((ROOT / "tracks" / "nav_open.json").read_text())
     track = track_from_dict(copy.deepcopy(data), "nav_open.json")
     # track version 2 keeps the controller it was scored with: the library's defaults since
     # then search out of stalls (searches, search_after, search_found, give_up)
@@ -121,7 +121,7 @@ def test_every_world_of_the_shipped_tracks_builds():
     # e.g. paper_sim_obstacles finds no room for its six obstacles with world seed 100
     from sfa_gym.sim.worlds import build_world, load_world_spec
 
-    for track in list_tracks(ROOT / "eval" / "tracks"):
+    for track in list_tracks(ROOT / "tracks"):
         spec = load_world_spec(track.world)
         for seed in track.world_seeds + track.fit_world_seeds:
             build_world(spec, seed)
@@ -130,7 +130,7 @@ def test_every_world_of_the_shipped_tracks_builds():
 def test_navigation_tracks_drive_the_env_of_their_world():
     import gymnasium as gym
 
-    for track in list_tracks(ROOT / "eval" / "tracks"):
+    for track in list_tracks(ROOT / "tracks"):
         if track.kind == "navigation":
             kwargs = gym.spec(track.params["env_id"]).kwargs
             assert kwargs["world"] == track.world, track.name

@@ -65,7 +65,7 @@ def _tiny(name: str = "outdoor_tiny", **params) -> dict:
 
 
 def test_shipped_outdoor_tracks_load_and_share_one_drive_per_world_seed():
-    tracks = {t.name: t for t in list_tracks(ROOT / "eval" / "tracks")}
+    tracks = {t.name: t for t in list_tracks(ROOT / "tracks")}
     paper, appearance = tracks["outdoor_paper"], tracks["outdoor_appearance"]
     assert paper.evaluation == appearance.evaluation == "outdoor"
     assert paper.params["conditions"] == ["after"]

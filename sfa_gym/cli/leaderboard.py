@@ -1,5 +1,5 @@
 """``sfa-gym leaderboard run`` and ``sfa-gym leaderboard table``: score methods on the versioned
-tracks of ``eval/tracks/`` and build the table (:mod:`sfa_gym.leaderboard`)."""
+tracks of ``tracks/`` and build the table (:mod:`sfa_gym.leaderboard`)."""
 
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ class LeaderboardRun:
     results: Path = Path("results/leaderboard")
     """results folder"""
     tracks: Path | None = None
-    """folder of track files (default: eval/tracks of the checkout)"""
+    """folder of track files (default: tracks/ of the checkout)"""
     cache: Path | None = None
     """render cache folder (default: $SFA_GYM_CACHE or ~/.cache/sfa-gym/runs); on a cluster,
     a folder every node sees"""

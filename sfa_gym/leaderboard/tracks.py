@@ -387,7 +387,7 @@ def load_track(path: str | os.PathLike[str]) -> Track:
 
 
 def default_track_folder() -> Path:
-    """``eval/tracks`` of the checkout this sfa_gym runs from, else the copy in the wheel.
+    """``tracks/`` of the checkout this sfa_gym runs from, else the copy in the wheel.
 
     Raises:
         FileNotFoundError: neither exists (name a folder of track files instead).
@@ -395,12 +395,12 @@ def default_track_folder() -> Path:
     import sfa_gym
 
     package = Path(sfa_gym.__file__).resolve().parent
-    # in a checkout the package's parent holds eval/; a wheel carries the files inside
-    for folder in (package.parent / "eval" / "tracks", package / "tracks_data"):
+    # in a checkout the package's parent holds tracks/; a wheel carries the files inside
+    for folder in (package.parent / "tracks", package / "tracks_data"):
         if folder.is_dir():
             return folder
     raise FileNotFoundError(
-        "no track files: neither eval/tracks of a checkout nor the wheel's copy; name a "
+        "no track files: neither tracks/ of a checkout nor the wheel's copy; name a "
         "folder of track files with --tracks"
     )
 

@@ -3,7 +3,7 @@
 Two measurements in one process:
 
 1. **Quick board, local backend**: ``band_means`` (or the ``--board-method`` methods, one after
-   the other) on every track of ``eval/tracks`` at its quick size (``sfa-gym leaderboard run
+   the other) on every track of ``tracks/`` at its quick size (``sfa-gym leaderboard run
    --quick``), one track at a time, from a **cold** render cache (a fresh folder unless
    ``--cache`` names one): the wall time per track includes rendering its runs; the renders'
    own seconds (the cache's ``renders.log``) are listed beside. The outdoor tracks share their
@@ -19,21 +19,23 @@ Two measurements in one process:
    scores as each other and as the local backend in step 1.
 
 The machine's load average is recorded before and after each phase: on a shared machine the
-figures are noisy. Writes ``eval/results/leaderboard_bench.json`` (``--json``).
+figures are noisy. Writes ``published/benchmarks/leaderboard_bench.json`` (``--json``).
 
 3. **Full size** (``--full-size METHOD``, instead of 1 and 2): one full-size task per track
    (its first world seed) from a cold cache, timed; the full board's time per track is
    estimated as that times the track's world seeds (each world seed renders its own runs).
 
+Backs docs/leaderboard.md (measured times).
+
 Usage (from the repository root; ~15-20 min on 2 cores, plus the outdoor tracks)::
 
-    .venv/bin/python eval/bench_leaderboard.py
-    .venv/bin/python eval/bench_leaderboard.py --skip-board --cache ~/.cache/sfa-gym/runs
-    .venv/bin/python eval/bench_leaderboard.py --skip-ray --tracks outdoor_paper \
+    .venv/bin/python -m benchmarks.bench_leaderboard
+    .venv/bin/python -m benchmarks.bench_leaderboard --skip-board --cache ~/.cache/sfa-gym/runs
+    .venv/bin/python -m benchmarks.bench_leaderboard --skip-ray --tracks outdoor_paper \
         outdoor_appearance --board-method band_means fft_magnitude eval/methods/sfa.py \
-        --json eval/results/leaderboard_outdoor_bench.json
-    .venv/bin/python eval/bench_leaderboard.py --full-size band_means \
-        --json eval/results/leaderboard_full_bench.json
+        --json published/benchmarks/leaderboard_outdoor_bench.json
+    .venv/bin/python -m benchmarks.bench_leaderboard --full-size band_means \
+        --json published/benchmarks/leaderboard_full_bench.json
 """
 
 from __future__ import annotations
@@ -42,24 +44,20 @@ import argparse
 import json
 import os
 import platform
-import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script from a checkout
-    sys.path.insert(0, str(ROOT))
+import sfa_gym
+from sfa_gym.leaderboard.backends import run_tasks
+from sfa_gym.leaderboard.evaluate import Task
+from sfa_gym.leaderboard.results import git_commit
+from sfa_gym.leaderboard.sweep import run_sweep
+from sfa_gym.leaderboard.tracks import list_tracks
+from sfa_gym.recording.cache import RunCache
 
-import sfa_gym  # noqa: E402
-from sfa_gym._files import write_json_atomic  # noqa: E402
-from sfa_gym.leaderboard.backends import run_tasks  # noqa: E402
-from sfa_gym.leaderboard.evaluate import Task  # noqa: E402
-from sfa_gym.leaderboard.results import git_commit  # noqa: E402
-from sfa_gym.leaderboard.sweep import run_sweep  # noqa: E402
-from sfa_gym.leaderboard.tracks import list_tracks  # noqa: E402
-from sfa_gym.recording.cache import RunCache  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 BASELINES = ROOT / "baselines"
 
@@ -192,7 +190,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cache", type=Path, default=None, help="render cache (default: fresh)")
     parser.add_argument("--results", type=Path, default=ROOT / "results" / "leaderboard_bench")
-    parser.add_argument("--json", type=Path, default=ROOT / "eval/results/leaderboard_bench.json")
+    parser.add_argument(
+        "--json", type=Path, default=ROOT / "published/benchmarks/leaderboard_bench.json"
+    )
     parser.add_argument(
         "--board-method",
         nargs="+",
@@ -213,7 +213,7 @@ def main(argv: list[str] | None = None) -> int:
 
     cache_root = args.cache or Path(tempfile.mkdtemp(prefix="sfa-gym-bench-cache-"))
     cache = RunCache(cache_root)
-    tracks = list_tracks(ROOT / "eval" / "tracks")
+    tracks = list_tracks(ROOT / "tracks")
     if args.tracks is not None:
         unknown = sorted(set(args.tracks) - {t.name for t in tracks})
         if unknown:
@@ -290,7 +290,7 @@ def main(argv: list[str] | None = None) -> int:
 def _write(report: dict[str, Any], started: float, path: Path) -> int:
     report["seconds"] = round(time.perf_counter() - started, 2)
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(path, report)
+    path.write_text(json.dumps(report, indent=1, allow_nan=False))
     print(f"wrote {path}")
     return 0
 

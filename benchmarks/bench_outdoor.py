@@ -11,9 +11,11 @@ seen by the cylindrical camera (the reference, measured in the same process):
 * ``outdoor dynamics+sensor``: and the camera's auto-exposure and noise;
 * ``OmniRoverOutdoor-v0``: all of it through the mirror camera (the registered id).
 
+Backs docs/speed.md (the outdoor world's cost per step).
+
 Usage (from the repository root)::
 
-    .venv/bin/python eval/bench_outdoor.py [--steps 40] [--repeats 5]
+    .venv/bin/python -m benchmarks.bench_outdoor [--steps 40] [--repeats 5]
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=40, help="steps per batch")
     parser.add_argument("--repeats", type=int, default=5, help="interleaved batches per env")
-    parser.add_argument("--out", type=Path, default=Path("eval/results/outdoor.json"))
+    parser.add_argument("--out", type=Path, default=Path("published/benchmarks/outdoor.json"))
     args = parser.parse_args()
     if args.steps < 1 or args.repeats < 1:
         parser.error(f"--steps and --repeats must be >= 1, got {args.steps}, {args.repeats}")
