@@ -68,12 +68,40 @@ def test_shipped_tracks_load_and_stay_clear_of_development_seeds():
     assert not set(unseen.fit_world_seeds) & set(unseen.world_seeds)
 
 
+def test_a_tracks_params_are_its_protocols_config():
+    from sfa_gym.protocols import grid, trajectory
+
+    tracks = {t.name: t for t in list_tracks(ROOT / "eval" / "tracks")}
+    quick = tracks["few_labels"].config(quick=True)
+    assert quick == grid.Config(
+        world="paper_sim",
+        panorama=(40, 350),
+        grid=16,
+        n_train=160,
+        n_test=64,
+        evaluations=("few_labels",),
+        labels=(12, 25, 50),
+        seed=7001,
+    )
+    assert tracks["unseen_worlds"].config(quick=False).evaluations == ("train_test",)
+    region = tracks["unvisited_region"].config(quick=True)
+    assert isinstance(region, trajectory.Config)
+    assert (region.spacing, region.exclude, region.eval_rotations) == (1.0, (-3, -1.5, -3, -1.5), 7)
+
+
 @pytest.mark.parametrize(
     ("change", "message"),
     [
         (lambda d: d.update(schema_version=2), "unknown schema_version 2"),
         (lambda d: d.pop("world_seeds"), "missing field 'world_seeds'"),
-        (lambda d: d["params"].pop("n_test"), "missing field 'params.n_test'"),
+        (lambda d: d["params"].update(n_tset=64), "unknown field 'params.n_tset' for train_test"),
+        (lambda d: d["params"].update(grid=0), "tiny.json: params: grid must be a positive int"),
+        (
+            lambda d: d["quick"].update(params={"n_test": 40}),
+            r"tiny.json: quick.params: n_train \+ n_test = 60 positions do not fit on a 6 x 6",
+        ),
+        (lambda d: d["params"].update(seed=3), "'params.seed' is set by the track"),
+        (lambda d: d["params"].update(evaluations=["paper_splits"]), "'params.evaluations' is set"),
         (lambda d: d.update(world_seeds=[100, 3]), "world_seeds 3 is a development seed"),
         (lambda d: d.update(seed=0), "seed 0 is a development seed"),
         (lambda d: d.update(colour="red"), "unknown field 'colour'"),

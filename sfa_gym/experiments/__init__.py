@@ -12,7 +12,7 @@
 
 from __future__ import annotations
 
-from sfa_gym.experiments.common import SlowFeatureMethod, evaluate_methods
+from sfa_gym.experiments.common import SlowFeatureMethod, score_methods
 from sfa_gym.experiments.grid import PAPER_SIM_RESULTS, GridExperiment, run_grid_experiment
 from sfa_gym.experiments.outdoor import OutdoorExperiment, run_outdoor_experiment
 from sfa_gym.experiments.report import format_table
@@ -31,7 +31,7 @@ __all__ = [
     "SFASettings",
     "SlowFeatureMethod",
     "TrajectoryExperiment",
-    "evaluate_methods",
+    "score_methods",
     "format_table",
     "run_grid_experiment",
     "run_outdoor_experiment",
