@@ -47,7 +47,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
-from sfa_gym.experiments.grid import GridExperiment, select_positions  # noqa: E402
+from sfa_gym.experiments.grid import GridExperiment  # noqa: E402
+from sfa_gym.protocols.grid import select_positions  # noqa: E402
 from sfa_gym.protocols.settings import SFASettings  # noqa: E402
 from sfa_gym.recording.drivers import GridPositions  # noqa: E402
 from sfa_gym.sim.camera import PanoramaSpec  # noqa: E402

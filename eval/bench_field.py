@@ -56,9 +56,10 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from sfa_gym._files import write_json_atomic  # noqa: E402
-from sfa_gym.experiments.grid import GridExperiment, select_positions  # noqa: E402
+from sfa_gym.experiments.grid import GridExperiment  # noqa: E402
 from sfa_gym.features import rotation_averaged_features  # noqa: E402
 from sfa_gym.navigation.field import INTERPOLATIONS, FeatureField  # noqa: E402
+from sfa_gym.protocols.grid import select_positions  # noqa: E402
 from sfa_gym.protocols.settings import SFASettings  # noqa: E402
 from sfa_gym.recording.drivers import GridPositions  # noqa: E402
 from sfa_gym.sim.env import OmniRoverEnv  # noqa: E402

@@ -232,6 +232,33 @@ def _ask(root: str) -> list:
     return np.asarray(run.panoramas).tolist()
 
 
+def test_a_run_folder_keeps_its_runs_by_name_and_reuses_them(tmp_path):
+    from sfa_gym.recording.cache import RunFolder
+
+    folder = RunFolder(tmp_path, {"grid": _request()})
+    first = folder.get(_request())
+    assert first.path == tmp_path / "grid.run" and first.complete
+    stamp = (tmp_path / "grid.run" / "run.json").stat().st_mtime_ns
+    again = folder.get(_request())
+    assert (tmp_path / "grid.run" / "run.json").stat().st_mtime_ns == stamp
+    np.testing.assert_array_equal(again.panoramas, first.panoramas)
+    # the same pixels as the shared cache renders for the same request
+    np.testing.assert_array_equal(
+        RunCache(tmp_path / "cache").get(_request()).panoramas, first.panoramas
+    )
+    with pytest.raises(KeyError, match=r"keeps the runs \['grid'\]"):
+        folder.get(_request(seed=7002))
+
+
+def test_a_request_may_leave_world_and_camera_to_the_env():
+    own = dataclasses.replace(_request(), world=None, panorama=None)
+    content = own.key_content()
+    assert content["world"] == "paper_sim" and content["panorama"] is None
+    assert content["world_spec_sha256"] == _request().key_content()["world_spec_sha256"]
+    assert own.record_kwargs() == {"world_seed": 100}
+    assert set(_request().record_kwargs()) == {"world", "world_seed", "panorama"}
+
+
 def test_two_processes_asking_for_the_same_run_render_it_once(tmp_path):
     context = multiprocessing.get_context("spawn")
     with context.Pool(2) as pool:
