@@ -1,11 +1,10 @@
-"""The evaluation loop shared by the localization protocols.
+"""Hierarchical SFA as a feature method, scored first, beside the plug-ins, by the command
+line's localization runs.
 
-Every feature method (hierarchical SFA first, then the plug-ins) is fitted on the rotated views of
-the same training panoramas, in their visiting order; its features of rotated views of the
-training and the test panoramas feed each of its regressions; the MAE of the estimates (averaged
-over the views of a location) and the invariance of the features over the training views are
-recorded. The protocols (:mod:`sfa_gym.protocols`) score one method each; this module adds
-hierarchical SFA as a feature method and scores it first, beside the plug-ins.
+Every method is scored through its protocol's ``score`` (:mod:`sfa_gym.protocols`): fitted on
+the rotated views of the same training panoramas, in their visiting order, with the same
+regressions and metrics as on the leaderboard; SFA with :data:`SFA_REGRESSORS`, each plug-in
+with the regressions it names.
 """
 
 from __future__ import annotations
