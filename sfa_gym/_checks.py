@@ -10,7 +10,14 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["is_number", "check_int", "check_positive_int", "check_finite", "check_positive"]
+__all__ = [
+    "check_finite",
+    "check_int",
+    "check_positive",
+    "check_positive_int",
+    "check_world_seed",
+    "is_number",
+]
 
 
 def is_number(value: Any) -> bool:
@@ -23,6 +30,16 @@ def check_int(name: str, value: Any) -> int:
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
         raise TypeError(f"{name} must be an int, got {value!r}")
     return int(value)
+
+
+def check_world_seed(name: str, value: Any) -> int:
+    """``value`` as a world seed: an int ``>= 0`` (the seed of the world's
+    ``np.random.default_rng``); TypeError or ValueError naming ``name`` otherwise. The one rule
+    of world seeds: the world builder and the protocols' settings both check it."""
+    seed = check_int(name, value)
+    if seed < 0:
+        raise ValueError(f"{name} must be >= 0, got {seed}")
+    return seed
 
 
 def check_positive_int(name: str, value: Any, *, none: bool = False) -> int | None:

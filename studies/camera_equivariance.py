@@ -47,8 +47,8 @@ from tqdm import tqdm
 
 from sfa_gym.experiments.grid import GridExperiment
 from sfa_gym.features import rotation_averaged_features
+from sfa_gym.protocols.grid import training_panoramas
 from sfa_gym.protocols.settings import SFASettings
-from sfa_gym.recording.grid_training import grid_training_panoramas
 from sfa_gym.sim.camera import PanoramaSpec
 from sfa_gym.sim.env import OmniRoverEnv
 
@@ -130,7 +130,7 @@ def train_model(mode: str, settings: SFASettings, grid: int, n_train: int):
     config = GridExperiment(
         grid=grid, n_train=n_train, n_test=min(196, grid * grid - n_train), sfa=settings
     )
-    panoramas = grid_training_panoramas(env, config)
+    panoramas = training_panoramas(env, config)
     model = settings.make_model(*panoramas.shape[1:3]).fit_rotations(panoramas, step=config.step)
     return env, model
 

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from sfa_gym.experiments import GridExperiment, SFASettings, TrajectoryExperiment
-from sfa_gym.experiments.common import SlowFeatureMethod, evaluate_methods
+from sfa_gym.experiments.common import SlowFeatureMethod
 from sfa_gym.experiments.figures import quarter_outputs
+from sfa_gym.protocols import grid
 from sfa_gym.protocols.features import fit_method, view_features
 from sfa_gym.protocols.settings import NETWORKS, NetworkName, WeightSharing
 from sfa_gym.rotation import Rotation
@@ -92,49 +93,87 @@ def test_firing_maps_show_the_views_nearest_the_quarter_turns(sfa, panoramas):
         )
 
 
-def test_every_method_sees_the_same_data_and_the_score_adds_to_the_mae(panoramas):
-    rng = np.random.default_rng(0)
-    xy = rng.uniform(-1, 1, size=(12, 2))
-    seen = []
+class GridRuns:
+    """Rendered grids held in memory, one per world seed: the RunSource the protocols read."""
 
-    def score(regressor, f_test, estimates):
-        seen.append((regressor, f_test.shape, estimates.shape))
-        return {"extra": regressor}
+    def __init__(self, n_positions: int):
+        self.n_positions = n_positions
+        self.asked: list[int] = []
 
-    settings = SFASettings(network="tiny", node_dim=6, n_outputs=4)
-    found = evaluate_methods(
-        [
-            (SlowFeatureMethod(settings, Rotation(step=4), progress=False), ("linear", "map")),
-            (Pixels(), ("linear", "linear")),
-        ],
-        train=(panoramas[:8], xy[:8]),
-        test=(panoramas[8:], xy[8:]),
-        rotation=Rotation(step=4),
-        score=score,
-        indices=np.array([0, 5]),
-        progress=False,
-    )
-    assert list(found.methods) == ["hierarchical_sfa", "pixels"]
-    assert seen == [
-        ("linear", (4, 2, 4), (4, 2)),
-        ("map", (4, 2, 4), (4, 2)),
-        ("linear", (4, 2, 1200), (4, 2)),  # a regression named twice is evaluated once
-    ]
-    entry = found.methods["hierarchical_sfa"]
-    assert set(entry) == {"eta_r", "eta_phi", "n_features", "linear", "map"}
-    assert set(entry["map"]) == {"train_test", "extra"} and entry["map"]["extra"] == "map"
-    assert found.estimates.shape == (4, 2) and found.model.input_shape_ == (10, 40, 3)
-
-
-def test_the_loop_needs_sfa_first_with_the_figure_regression(panoramas):
-    with pytest.raises(ValueError, match="the first method must be a SlowFeatureMethod"):
-        evaluate_methods(
-            [(Pixels(), ("linear",))],
-            train=(panoramas, np.zeros((12, 2))),
-            test=(panoramas, np.zeros((12, 2))),
-            rotation=Rotation(step=4),
-            score=lambda *args: {},
+    def get(self, request):
+        self.asked.append(request.world_seed)
+        rng = np.random.default_rng(request.world_seed)
+        return GridRun(
+            synthetic_panoramas(self.n_positions, 10, 40, seed=request.world_seed),
+            rng.uniform(-3, 3, size=(self.n_positions, 2)),
         )
+
+
+class GridRun:
+    def __init__(self, panoramas, positions):
+        self.panoramas, self.positions = panoramas, positions
+
+    def __len__(self):
+        return len(self.panoramas)
+
+
+SMALL_GRID = grid.Config(grid=4, n_train=8, n_test=6, step=4, n_splits=3, labels=(3, 5))
+
+
+def test_a_method_is_fitted_on_every_training_view_and_scored_once_per_regression():
+    runs = GridRuns(16)
+    found = grid.score(SMALL_GRID, Pixels(), 100, runs, regressors=("linear", "linear"))
+    data = found.data
+    assert runs.asked == [100]
+    views = Rotation(step=4).views(data.panoramas[data.train])[0]
+    np.testing.assert_array_equal(found.method.fitted_on_, views.reshape(-1, 10, 40, 3))
+    assert list(found.regressions) == ["linear"]  # a regression named twice is scored once
+    entry = found.entry()
+    assert set(entry) == {"eta_r", "eta_phi", "n_features", "linear"}
+    assert list(entry["linear"]) == ["train_test", "paper_splits"]
+    assert entry["n_features"] == 10 * 40 * 3
+    task = found.task_scores()
+    assert task["regressor"] == "linear" and task["n_features"] == 1200
+    np.testing.assert_allclose(
+        task["mae_percent"], entry["linear"]["train_test"]["mae_percent"], atol=1e-4
+    )
+    assert task["score"] == pytest.approx(np.mean(task["mae_percent"]))
+
+
+def test_the_first_evaluation_is_the_task_score_and_few_labels_scores_each_count():
+    config = dataclasses.replace(SMALL_GRID, evaluations=("few_labels", "train_test"))
+    found = grid.score(config, Pixels(), 100, GridRuns(16))
+    task = found.task_scores()
+    assert set(found.regressions["linear"].few_labels) == {3, 5}
+    assert task["score"] == pytest.approx(np.mean([task["labels_3"], task["labels_5"]]))
+
+
+def test_unseen_worlds_fit_the_method_on_the_other_world_only():
+    runs = GridRuns(16)
+    found = grid.score(SMALL_GRID, Pixels(), 100, runs, fit_world_seed=105)
+    assert runs.asked == [100, 105]
+    other = runs.get(grid.requests(SMALL_GRID, 105)["grid"])
+    train, _ = grid.select_positions(SMALL_GRID, 16)
+    views = Rotation(step=4).views(other.panoramas[train])[0]
+    np.testing.assert_array_equal(found.method.fitted_on_, views.reshape(-1, 10, 40, 3))
+
+
+@pytest.mark.parametrize(
+    ("world_seed", "message"), [(-1, "world_seed must be >= 0, got -1"), (1.5, "must be an int")]
+)
+def test_a_bad_world_seed_is_refused_before_any_run_is_asked_for(world_seed, message):
+    runs = GridRuns(16)
+    with pytest.raises((TypeError, ValueError), match=message):
+        grid.score(SMALL_GRID, Pixels(), world_seed, runs)
+    assert runs.asked == []
+
+
+def test_the_command_line_refuses_a_negative_world_seed_before_creating_its_folder(tmp_path):
+    from sfa_gym.experiments import run_grid_experiment
+
+    with pytest.raises(ValueError, match="world_seed must be >= 0, got -1"):
+        run_grid_experiment(GridExperiment(world_seed=-1), tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
 
 
 def test_the_settings_names_are_the_engines():

@@ -68,12 +68,40 @@ def test_shipped_tracks_load_and_stay_clear_of_development_seeds():
     assert not set(unseen.fit_world_seeds) & set(unseen.world_seeds)
 
 
+def test_a_tracks_params_are_its_protocols_config():
+    from sfa_gym.protocols import grid, trajectory
+
+    tracks = {t.name: t for t in list_tracks(ROOT / "tracks")}
+    quick = tracks["few_labels"].config(quick=True)
+    assert quick == grid.Config(
+        world="paper_sim",
+        panorama=(40, 350),
+        grid=16,
+        n_train=160,
+        n_test=64,
+        evaluations=("few_labels",),
+        labels=(12, 25, 50),
+        seed=7001,
+    )
+    assert tracks["unseen_worlds"].config(quick=False).evaluations == ("train_test",)
+    region = tracks["unvisited_region"].config(quick=True)
+    assert isinstance(region, trajectory.Config)
+    assert (region.spacing, region.exclude, region.eval_rotations) == (1.0, (-3, -1.5, -3, -1.5), 7)
+
+
 @pytest.mark.parametrize(
     ("change", "message"),
     [
         (lambda d: d.update(schema_version=2), "unknown schema_version 2"),
         (lambda d: d.pop("world_seeds"), "missing field 'world_seeds'"),
-        (lambda d: d["params"].pop("n_test"), "missing field 'params.n_test'"),
+        (lambda d: d["params"].update(n_tset=64), "unknown field 'params.n_tset' for train_test"),
+        (lambda d: d["params"].update(grid=0), "tiny.json: params: grid must be a positive int"),
+        (
+            lambda d: d["quick"].update(params={"n_test": 40}),
+            r"tiny.json: quick.params: n_train \+ n_test = 60 positions do not fit on a 6 x 6",
+        ),
+        (lambda d: d["params"].update(seed=3), "'params.seed' is set by the track"),
+        (lambda d: d["params"].update(evaluations=["paper_splits"]), "'params.evaluations' is set"),
         (lambda d: d.update(world_seeds=[100, 3]), "world_seeds 3 is a development seed"),
         (lambda d: d.update(seed=0), "seed 0 is a development seed"),
         (lambda d: d.update(colour="red"), "unknown field 'colour'"),
@@ -202,6 +230,33 @@ def _request(seed: int = 7001) -> RunRequest:
 def _ask(root: str) -> list:
     run = RunCache(root).get(_request())
     return np.asarray(run.panoramas).tolist()
+
+
+def test_a_run_folder_keeps_its_runs_by_name_and_reuses_them(tmp_path):
+    from sfa_gym.recording.cache import RunFolder
+
+    folder = RunFolder(tmp_path, {"grid": _request()})
+    first = folder.get(_request())
+    assert first.path == tmp_path / "grid.run" and first.complete
+    stamp = (tmp_path / "grid.run" / "run.json").stat().st_mtime_ns
+    again = folder.get(_request())
+    assert (tmp_path / "grid.run" / "run.json").stat().st_mtime_ns == stamp
+    np.testing.assert_array_equal(again.panoramas, first.panoramas)
+    # the same pixels as the shared cache renders for the same request
+    np.testing.assert_array_equal(
+        RunCache(tmp_path / "cache").get(_request()).panoramas, first.panoramas
+    )
+    with pytest.raises(KeyError, match=r"keeps the runs \['grid'\]"):
+        folder.get(_request(seed=7002))
+
+
+def test_a_request_may_leave_world_and_camera_to_the_env():
+    own = dataclasses.replace(_request(), world=None, panorama=None)
+    content = own.key_content()
+    assert content["world"] == "paper_sim" and content["panorama"] is None
+    assert content["world_spec_sha256"] == _request().key_content()["world_spec_sha256"]
+    assert own.record_kwargs() == {"world_seed": 100}
+    assert set(_request().record_kwargs()) == {"world", "world_seed", "panorama"}
 
 
 def test_two_processes_asking_for_the_same_run_render_it_once(tmp_path):

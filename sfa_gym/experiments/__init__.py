@@ -1,18 +1,21 @@
-"""Localization experiments, end to end: render, learn features, regress, measure.
+"""The command line's localization runs: output folder, ``results.json``, figures, report.
 
-- :mod:`sfa_gym.experiments.grid`: the paper's simulator protocol (a grid of positions).
-- :mod:`sfa_gym.experiments.trajectory`: the paper's outdoor protocol (a training run and a
-  test run through a region never visited in training).
+The protocols themselves are :mod:`sfa_gym.protocols` (each a ``Config`` and ``score``, which the
+leaderboard calls too); these modules score hierarchical SFA beside the plug-ins through them:
+
+- :mod:`sfa_gym.experiments.grid`: ``sfa-gym localize``, the paper's simulator protocol (a grid
+  of positions).
+- :mod:`sfa_gym.experiments.trajectory`: ``sfa-gym localize-run``, the paper's outdoor protocol
+  (a training run and a test run through a region never visited in training).
 - :mod:`sfa_gym.experiments.outdoor`: the paper's outdoor experiment in the outdoor world
   (dynamics, mirror camera, vibration) and its appearance tracks.
-- :mod:`sfa_gym.experiments.common`: the evaluation loop both share.
-- :mod:`sfa_gym.protocols.settings`: the SFA network's settings, nested in both protocols'.
+- :mod:`sfa_gym.experiments.common`: hierarchical SFA as a feature method, scored first.
 - :mod:`sfa_gym.experiments.report`, :mod:`sfa_gym.experiments.figures`: what they write.
 """
 
 from __future__ import annotations
 
-from sfa_gym.experiments.common import SlowFeatureMethod, evaluate_methods
+from sfa_gym.experiments.common import SlowFeatureMethod, score_methods
 from sfa_gym.experiments.grid import PAPER_SIM_RESULTS, GridExperiment, run_grid_experiment
 from sfa_gym.experiments.outdoor import OutdoorExperiment, run_outdoor_experiment
 from sfa_gym.experiments.report import format_table
@@ -31,7 +34,7 @@ __all__ = [
     "SFASettings",
     "SlowFeatureMethod",
     "TrajectoryExperiment",
-    "evaluate_methods",
+    "score_methods",
     "format_table",
     "run_grid_experiment",
     "run_outdoor_experiment",

@@ -1,6 +1,6 @@
 """Leaderboard tracks: versioned JSON files that fix what a method is scored on.
 
-A track file (``eval/tracks/<name>.json``) is a JSON object::
+A track file (``tracks/<name>.json``) is a JSON object::
 
     {"schema_version": 1,
      "name": "train_test",            # equals the file's stem
@@ -12,10 +12,15 @@ A track file (``eval/tracks/<name>.json``) is a JSON object::
      "world": "paper_sim",            # a world spec name in envs/
      "world_seeds": [100, 101, ...],  # scoring worlds; one task each; the interval is across them
      "seed": 7001,                    # headings, train/test selection, splits, episodes
-     "params": {...},                 # the evaluation's sizes (see REQUIRED_PARAMS)
+     "params": {...},                 # the evaluation's settings (see PROTOCOLS)
      "quick": {"world_seeds": 2, "params": {...}}}  # the reduced size: the first n world
                                                     # seeds and parameter overrides
 
+The ``params`` of an evaluation scored by a protocol (:data:`PROTOCOLS`) are fields of that
+protocol's ``Config``: the track's settings are ``dataclasses.replace(Config(), world=world,
+seed=seed, **params)`` (lists as tuples; the fields an evaluation fixes, :data:`FIXED_SETTINGS`,
+added), checked by ``Config.validate()`` at both sizes when the file is loaded; a field left
+out takes the ``Config``'s default.
 ``unseen_worlds`` adds ``"fit_world_seeds"`` (one per scoring world: the world the method is
 fitted on); ``navigation`` adds ``params.episode_seed`` (episodes ``episode_seed + i``) and
 ``params.controller`` (every field of
@@ -47,12 +52,14 @@ from sfa_gym.leaderboard.outdoor import PARAMS as OUTDOOR_PARAMS
 __all__ = [
     "DEVELOPMENT_SEEDS",
     "EVALUATIONS",
+    "PROTOCOLS",
     "SCHEMA_VERSION",
     "Track",
     "TrackError",
     "default_track_folder",
     "list_tracks",
     "load_track",
+    "protocol_module",
     "track_from_dict",
 ]
 
@@ -82,25 +89,29 @@ Evaluation = Literal[
     "navigation",
 ]
 
-_GRID = ("panorama", "grid", "n_train", "n_test", "order", "step")
-REQUIRED_PARAMS: Mapping[str, tuple[str, ...]] = {
-    "paper_splits": (*_GRID, "n_splits"),
-    "train_test": _GRID,
-    "few_labels": (*_GRID, "labels"),
-    "unseen_worlds": _GRID,
-    "unvisited_region": (
-        "panorama",
-        "spacing",
-        "margin",
-        "exclude",
-        "test_insets",
-        "frame_every",
-        "test_every",
-        "step",
-        "eval_rotations",
-        "train_steps",
-        "test_steps",
-    ),
+PROTOCOLS: Mapping[str, str] = {
+    "paper_splits": "sfa_gym.protocols.grid",
+    "train_test": "sfa_gym.protocols.grid",
+    "few_labels": "sfa_gym.protocols.grid",
+    "unseen_worlds": "sfa_gym.protocols.grid",
+    "unvisited_region": "sfa_gym.protocols.trajectory",
+}
+"""The protocol module (:mod:`sfa_gym.protocols`) that scores each evaluation: a track's
+``params`` are fields of its ``Config`` (see :meth:`Track.config`) and its ``score`` scores a
+task."""
+
+FIXED_SETTINGS: Mapping[str, Mapping[str, Any]] = {
+    "paper_splits": {"evaluations": ("paper_splits",)},
+    "train_test": {"evaluations": ("train_test",)},
+    "few_labels": {"evaluations": ("few_labels",)},
+    "unseen_worlds": {"evaluations": ("train_test",)},
+}
+"""Settings of the protocol's ``Config`` that an evaluation fixes (its ``params`` may not)."""
+
+TRACK_SETTINGS = ("world", "seed")
+"""``Config`` fields that come from the track's own fields of the same names."""
+
+OTHER_PARAMS: Mapping[str, tuple[str, ...]] = {
     "outdoor": OUTDOOR_PARAMS,
     "navigation": (
         "env_id",
@@ -113,7 +124,8 @@ REQUIRED_PARAMS: Mapping[str, tuple[str, ...]] = {
         "controller",
     ),
 }
-"""The ``params`` each evaluation needs (and accepts: others are refused as typos)."""
+"""The ``params`` of the evaluations not yet scored through a protocol ``Config`` (each needs
+and accepts exactly these)."""
 
 EVALUATIONS: Mapping[str, str] = {
     "paper_splits": "localization",
@@ -175,6 +187,18 @@ class Track:
         n = self.quick["world_seeds"]
         return self.world_seeds[:n], {**self.params, **self.quick.get("params", {})}
 
+    def config(self, quick: bool) -> Any:
+        """The protocol ``Config`` of the track at full size or at the ``quick`` size (see the
+        module docstring).
+
+        Raises:
+            TrackError: the evaluation has no protocol ``Config`` (:data:`OTHER_PARAMS`).
+        """
+        if self.evaluation not in PROTOCOLS:
+            raise TrackError(f"evaluation {self.evaluation!r} is not scored by a protocol Config")
+        _, params = self.sized(quick)
+        return _protocol_config(self.evaluation, self.world, self.seed, params)
+
     def fit_world_seed(self, world_seed: int) -> int:
         """The world the method is fitted on when scored on ``world_seed`` (itself, except on
         ``unseen_worlds``)."""
@@ -188,6 +212,59 @@ class Track:
         out["world_seeds"] = list(self.world_seeds)
         out["fit_world_seeds"] = list(self.fit_world_seeds)
         return out
+
+
+def protocol_module(evaluation: str) -> Any:
+    """The protocol module (:data:`PROTOCOLS`) that scores ``evaluation``."""
+    import importlib
+
+    return importlib.import_module(PROTOCOLS[evaluation])
+
+
+def _tuples(value: Any) -> Any:
+    """JSON lists as tuples (the Configs' sequences are tuples), recursively."""
+    if isinstance(value, list | tuple):
+        return tuple(_tuples(v) for v in value)
+    return value
+
+
+def _protocol_config(evaluation: str, world: str, seed: int, params: Mapping[str, Any]) -> Any:
+    config_type = protocol_module(evaluation).Config
+    settings = {
+        "world": world,
+        "seed": seed,
+        **FIXED_SETTINGS.get(evaluation, {}),
+        **{name: _tuples(value) for name, value in params.items()},
+    }
+    return dataclasses.replace(config_type(), **settings)
+
+
+def _check_protocol_params(
+    where: str, data: dict[str, Any], params: dict[str, Any], overrides: dict[str, Any]
+) -> None:
+    """Refuse ``params`` (and ``quick.params``) that are not fields of the evaluation's protocol
+    ``Config``, fields the track or the evaluation sets, or values its ``validate()`` refuses."""
+    evaluation = data["evaluation"]
+    config_type = protocol_module(evaluation).Config
+    names = [f.name for f in dataclasses.fields(config_type)]
+    fixed = {*TRACK_SETTINGS, *FIXED_SETTINGS.get(evaluation, {})}
+    for size, given in (("params", params), ("quick.params", overrides)):
+        for name in given:
+            if name not in names:
+                raise TrackError(
+                    f"{where}: unknown field '{size}.{name}' for {evaluation}; the settings of "
+                    f"{config_type.__module__}.Config are {[n for n in names if n not in fixed]}"
+                )
+            if name in fixed:
+                raise TrackError(
+                    f"{where}: field '{size}.{name}' is set by the track or by the "
+                    f"{evaluation} evaluation, not by params"
+                )
+    for size, sized in (("params", params), ("quick.params", {**params, **overrides})):
+        try:
+            _protocol_config(evaluation, data["world"], data["seed"], sized).validate()
+        except (TypeError, ValueError) as error:
+            raise TrackError(f"{where}: {size}: {error}") from None
 
 
 def _int(where: str, name: str, value: Any) -> int:
@@ -282,12 +359,12 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
     params = data["params"]
     if not isinstance(params, dict):
         raise TrackError(f"{where}: params must be an object, got {params!r}")
-    required = REQUIRED_PARAMS[evaluation]
+    required = OTHER_PARAMS.get(evaluation, ())
     for name in required:
         if name not in params:
             raise TrackError(f"{where}: missing field 'params.{name}' (needed by {evaluation})")
     extra = sorted(set(params) - set(required))
-    if extra:
+    if evaluation not in PROTOCOLS and extra:
         raise TrackError(f"{where}: unknown field 'params.{extra[0]}' for {evaluation}")
     if evaluation == "navigation":
         _check_controller(where, params["controller"])
@@ -304,8 +381,12 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
             f"{where}: quick.world_seeds must be in [1, {len(world_seeds)}], got {n_quick}"
         )
     overrides = quick.get("params", {})
-    if not isinstance(overrides, dict) or set(overrides) - set(required):
-        bad = sorted(set(overrides) - set(required)) if isinstance(overrides, dict) else overrides
+    if not isinstance(overrides, dict):
+        raise TrackError(f"{where}: quick.params must be an object, got {overrides!r}")
+    if evaluation in PROTOCOLS:
+        _check_protocol_params(where, data, params, overrides)
+    elif set(overrides) - set(required):
+        bad = sorted(set(overrides) - set(required))
         raise TrackError(f"{where}: quick.params overrides unknown params {bad!r}")
     if evaluation == "outdoor":
         _check_outdoor(where, data["world"], world_seeds[0], seed, params, overrides)
@@ -387,22 +468,15 @@ def load_track(path: str | os.PathLike[str]) -> Track:
 
 
 def default_track_folder() -> Path:
-    """``tracks/`` of the checkout this sfa_gym runs from, else the copy in the wheel.
+    """``tracks/`` of the checkout this sfa_gym runs from, else the copy in the wheel
+    (:func:`sfa_gym.data.data_folder`).
 
     Raises:
-        FileNotFoundError: neither exists (name a folder of track files instead).
+        FileNotFoundError: neither exists (name a folder of track files with --tracks instead).
     """
-    import sfa_gym
+    from sfa_gym.data import data_folder
 
-    package = Path(sfa_gym.__file__).resolve().parent
-    # in a checkout the package's parent holds tracks/; a wheel carries the files inside
-    for folder in (package.parent / "tracks", package / "tracks_data"):
-        if folder.is_dir():
-            return folder
-    raise FileNotFoundError(
-        "no track files: neither tracks/ of a checkout nor the wheel's copy; name a "
-        "folder of track files with --tracks"
-    )
+    return data_folder("tracks")
 
 
 def list_tracks(folder: str | os.PathLike[str] | None = None) -> list[Track]:

@@ -27,12 +27,24 @@ __all__ = [
     "eta_r",
     "fit_predict",
     "mae",
+    "mae_dict",
     "predict_locations",
     "random_split_mae",
     "train_test_mae",
 ]
 
 RegressorFactory = Callable[[], Regressor]
+
+
+def mae_dict(result: MAE | SplitMAE) -> dict[str, list[float]]:
+    """MAE (m and % of the range), standard deviation and range per coordinate, rounded, as
+    the protocols' results hold them (JSON types)."""
+    return {
+        "mae_m": np.round(result.mae_m, 5).tolist(),
+        "mae_percent": np.round(result.mae_percent, 4).tolist(),
+        "std_m": np.round(result.std_m, 5).tolist(),
+        "range_m": np.round(result.range_m, 5).tolist(),
+    }
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,7 @@ statistics that are ``rotation_invariant``)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -15,7 +16,15 @@ from sfa_gym.localization import eta_phi, eta_r
 from sfa_gym.localization.methods import FeatureMethod
 from sfa_gym.rotation import Rotation
 
-__all__ = ["VIEWS_PER_BLOCK", "fit_method", "full_width", "invariance_entry", "view_features"]
+__all__ = [
+    "VIEWS_PER_BLOCK",
+    "fit_method",
+    "fitted_features",
+    "full_width",
+    "invariance_entry",
+    "method_regressors",
+    "view_features",
+]
 
 # Views transformed at once: bounds the memory of a block of rotated views.
 VIEWS_PER_BLOCK = 4096
@@ -83,6 +92,25 @@ def fit_method(
     return method.fit(views.reshape(-1, *views.shape[2:]))
 
 
+def fitted_features(
+    method: FeatureMethod,
+    fit_panoramas: NDArray[np.uint8],
+    rotation: Rotation,
+    train: NDArray[np.uint8],
+    test: NDArray[np.uint8],
+    indices: NDArray[np.intp] | None = None,
+    progress: bool = False,
+) -> tuple[FeatureMethod, NDArray[np.float64], NDArray[np.float64]]:
+    """``method`` fitted on every rotated view of ``fit_panoramas`` (:func:`fit_method`) and its
+    features of the views ``indices`` of the ``train`` and the ``test`` panoramas
+    (:func:`view_features`): ``(fitted, (L, K', k), (M, K', k))``."""
+    fitted = fit_method(method, fit_panoramas, rotation)
+    label = getattr(method, "name", type(method).__name__)
+    f_train = view_features(fitted, train, rotation, indices, f"{label} train", progress)
+    f_test = view_features(fitted, test, rotation, indices, f"{label} test", progress)
+    return fitted, f_train, f_test
+
+
 def full_width(rotation: Rotation, panoramas: NDArray[np.uint8]) -> bool:
     """Whether the views of ``rotation`` span the whole width of ``panoramas (L, H, W, 3)``."""
     return rotation.view_width(panoramas.shape[2]) == panoramas.shape[2]
@@ -95,3 +123,14 @@ def invariance_entry(train_features: NDArray[np.float64]) -> dict[str, Any]:
         "eta_phi": np.round(eta_phi(train_features), 4).tolist(),
         "n_features": int(train_features.shape[2]),
     }
+
+
+def method_regressors(method: FeatureMethod, regressors: Sequence[str] | None) -> list[str]:
+    """The regressions a method is scored with: ``regressors`` without repeats, or, when None,
+    the method's own ``regressor`` (default linear)."""
+    if regressors is None:
+        return [str(getattr(method, "regressor", "linear"))]
+    names = list(dict.fromkeys(regressors))
+    if not names:
+        raise ValueError(f"{getattr(method, 'name', method)!r}: no regression to score it with")
+    return names

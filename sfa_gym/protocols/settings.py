@@ -15,16 +15,20 @@ from typing import Annotated, Any, Literal, get_args
 import tyro
 
 from sfa_gym._checks import check_positive_int
+from sfa_gym.rotation import Rotation, check_step
 from sfa_gym.sfa import HierarchicalSFA, LayerSpec, WeightSharing, presets
 
 __all__ = [
     "EnvId",
     "NETWORKS",
+    "RenderSettings",
     "NetworkName",
     "SFASettings",
     "WeightSharing",
     "check_choice",
     "check_env_id",
+    "check_panorama",
+    "check_world",
 ]
 
 NetworkName = Literal["paper_sim", "paper_outdoor", "tiny"]
@@ -57,6 +61,61 @@ def check_env_id(name: str, env_id: Any) -> None:
     if not isinstance(env_id, str) or env_id not in gym.registry:
         ours = ", ".join(sorted(i for i in gym.registry if i.startswith("sfa_gym/")))
         raise ValueError(f"{name} {env_id!r} is not a registered env; the sfa-gym envs are {ours}")
+
+
+def check_world(name: str, world: Any) -> None:
+    """ValueError naming ``name`` unless ``world`` is None (the env's own world) or a world
+    spec that loads (a name in envs/ or a JSON file)."""
+    if world is None:
+        return
+    from sfa_gym.sim.worlds.spec import load_world_spec
+
+    if not isinstance(world, str) or not world:
+        raise ValueError(f"{name} must be None or a world spec name, got {world!r}")
+    try:
+        load_world_spec(world)
+    except ValueError as error:
+        raise ValueError(f"{name}: {error}") from None
+
+
+def check_panorama(name: str, panorama: Any, step: int) -> None:
+    """ValueError naming ``name`` unless ``panorama`` is None (the env's own camera) or
+    ``(height, width)`` positive ints whose width is a multiple of the rotation ``step``."""
+    if panorama is None:
+        return
+    if not isinstance(panorama, tuple | list) or len(panorama) != 2:
+        raise ValueError(f"{name} must be None or (height, width) in pixels, got {panorama!r}")
+    for value in panorama:
+        check_positive_int(name, value)
+    check_step(panorama[1], step)
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """What a protocol renders and how it turns the panoramas: the env, its world, its camera
+    and the simulated rotation. The protocols' ``Config`` classes start with these fields."""
+
+    env_id: EnvId = "sfa_gym/OmniRover-v0"
+    """registered env to render the panoramas with"""
+    world: str | None = None
+    """world spec to render (a name in envs/ or a JSON file); None: the env's own world"""
+    panorama: tuple[int, int] | None = None
+    """(height, width) of the panoramas in pixels, replacing the env's camera (e.g. small
+    panoramas for quick runs); None: the env's own camera"""
+    step: int = 5
+    """simulated rotation step, columns (must divide the panorama width)"""
+
+    @property
+    def rotation(self) -> Rotation:
+        """The simulated rotation every method is trained and evaluated on."""
+        return Rotation(step=self.step)
+
+    def validate_rendering(self) -> None:
+        """Raise ValueError naming the first bad field of these."""
+        check_env_id("env_id", self.env_id)
+        check_world("world", self.world)
+        check_positive_int("step", self.step)
+        check_panorama("panorama", self.panorama, self.step)
 
 
 @dataclass(frozen=True)

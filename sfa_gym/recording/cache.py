@@ -45,6 +45,7 @@ from typing import Any
 __all__ = [
     "RENDERING_VERSION",
     "RunCache",
+    "RunFolder",
     "RunRequest",
     "changed_env_kwargs",
     "default_cache_dir",
@@ -189,6 +190,8 @@ class RunRequest:
     with ``world_seed`` and panoramas ``panorama = (height, width)`` pixels.
 
     Attributes:
+        world: a world spec name, or None: the env id's own world.
+        panorama: ``(height, width)`` pixels, or None: the env id's own camera.
         driver: a :class:`~sfa_gym.recording.drivers.GridPositions` or a driver instance; its
             ``describe()`` enters the key.
         env_kwargs: further keyword arguments of ``gym.make(env_id)`` (not ``world``,
@@ -196,9 +199,9 @@ class RunRequest:
             env id's defaults enter the key (see the module docstring).
     """
 
-    world: str
+    world: str | None
     world_seed: int
-    panorama: tuple[int, int]
+    panorama: tuple[int, int] | None
     driver: Any
     n_steps: int | None = None
     seed: int = 0
@@ -206,26 +209,44 @@ class RunRequest:
     env_kwargs: Mapping[str, Any] = field(default_factory=dict)
 
     def panorama_spec(self) -> Any:
-        """The env's :class:`~sfa_gym.sim.camera.PanoramaSpec` (other fields at defaults)."""
+        """The env's :class:`~sfa_gym.sim.camera.PanoramaSpec` (other fields at defaults), or
+        None (the env's own camera)."""
         from sfa_gym.sim.camera import PanoramaSpec
 
+        if self.panorama is None:
+            return None
         height, width = self.panorama
         return PanoramaSpec(width=int(width), height=int(height))
+
+    def record_kwargs(self) -> dict[str, Any]:
+        """The ``env_kwargs`` of the recorder: the request's own, its world and world seed and
+        its panorama spec (world and panorama only when given: else the env id's own)."""
+        kwargs: dict[str, Any] = dict(self.env_kwargs)
+        if self.world is not None:
+            kwargs["world"] = self.world
+        kwargs["world_seed"] = self.world_seed
+        if self.panorama is not None:
+            kwargs["panorama"] = self.panorama_spec()
+        return kwargs
 
     def key_content(self) -> dict[str, Any]:
         """Everything that determines the pixels, as JSON types."""
         from sfa_gym.sim.worlds.spec import load_world_spec
 
-        spec = dataclasses.asdict(load_world_spec(self.world))
+        # the env id's own world is a world spec too: its content enters the key
+        world = self.world if self.world is not None else env_defaults(self.env_id)["world"]
+        spec = dataclasses.asdict(load_world_spec(world))
         spec_text = json.dumps(spec, sort_keys=True, default=list)
+        panorama = self.panorama_spec()
         content = {
             "rendering_version": RENDERING_VERSION,
             "rendering_code_sha256": rendering_code_sha256(),
             "env_id": self.env_id,
-            "world": self.world,
+            "world": world,
             "world_spec_sha256": hashlib.sha256(spec_text.encode()).hexdigest(),
             "world_seed": int(self.world_seed),
-            "panorama": dataclasses.asdict(self.panorama_spec()),
+            # None: the env's own camera, whose defaults are code (in the code hash)
+            "panorama": None if panorama is None else dataclasses.asdict(panorama),
             "driver": json.loads(json.dumps(self.driver.describe(), default=list)),
             "n_steps": self.n_steps,
             "seed": int(self.seed),
@@ -313,12 +334,7 @@ class RunCache:
             tmp,
             n_steps=request.n_steps,
             seed=request.seed,
-            env_kwargs={
-                **request.env_kwargs,
-                "world": request.world,
-                "world_seed": request.world_seed,
-                "panorama": request.panorama_spec(),
-            },
+            env_kwargs=request.record_kwargs(),
             progress=self.progress,
         )
         os.replace(tmp, path)
@@ -337,3 +353,51 @@ class RunCache:
         """The lines of ``renders.log``: one per render since the cache was created."""
         log = self.root / "renders.log"
         return log.read_text().splitlines() if log.is_file() else []
+
+
+class RunFolder:
+    """Runs recorded under given names in one folder (an experiment's output folder): a
+    :class:`~sfa_gym.protocols.RunSource` whose runs are reused by the next call with the same
+    settings, and resumed when a render was interrupted (see
+    :func:`~sfa_gym.recording.recorder.record`).
+
+    Args:
+        folder: where the runs are kept (created on first use).
+        names: the file name (without ``.run``) of each request this folder records; a request
+            is recognised by its :meth:`RunRequest.key`.
+        progress: progress bars while rendering.
+    """
+
+    def __init__(
+        self,
+        folder: str | os.PathLike[str],
+        names: Mapping[str, RunRequest],
+        progress: bool = False,
+    ):
+        self.folder = Path(folder)
+        self._names = {request.key(): name for name, request in names.items()}
+        self.progress = progress
+
+    def get(self, request: RunRequest) -> Any:
+        """The run of ``request`` in ``<folder>/<name>.run``, recorded (or resumed) if needed.
+
+        Raises:
+            KeyError: a request this folder was not given a name for.
+        """
+        from sfa_gym.recording.recorder import record
+
+        name = self._names.get(request.key())
+        if name is None:
+            raise KeyError(
+                f"{self.folder} keeps the runs {sorted(self._names.values())}; this request is "
+                f"none of them: {request}"
+            )
+        return record(
+            request.env_id,
+            request.driver,
+            self.folder / f"{name}.run",
+            n_steps=request.n_steps,
+            seed=request.seed,
+            env_kwargs=request.record_kwargs(),
+            progress=self.progress,
+        )

@@ -11,6 +11,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sfa_gym._checks import check_world_seed
 from sfa_gym.sim.worlds._mjcf import Builder as _Builder
 from sfa_gym.sim.worlds._mjcf import num as _num
 from sfa_gym.sim.worlds._mjcf import vec as _vec
@@ -434,10 +435,7 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
         The MJCF text of the whole model and the world's layout. The model contains a fixed
         camera ``"overhead"`` looking straight down on the arena.
     """
-    if isinstance(world_seed, bool) or not isinstance(world_seed, int | np.integer):
-        raise TypeError(f"world_seed must be an integer, got {world_seed!r}")
-    if world_seed < 0:
-        raise ValueError(f"world_seed must be >= 0, got {world_seed}")
+    check_world_seed("world_seed", world_seed)
     robot = robot or MJCFParts()
     rng = np.random.default_rng(int(world_seed))
     b = _Builder(spec, rng)
