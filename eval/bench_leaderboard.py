@@ -30,7 +30,7 @@ Usage (from the repository root; ~15-20 min on 2 cores, plus the outdoor tracks)
     .venv/bin/python eval/bench_leaderboard.py
     .venv/bin/python eval/bench_leaderboard.py --skip-board --cache ~/.cache/sfa-gym/runs
     .venv/bin/python eval/bench_leaderboard.py --skip-ray --tracks outdoor_paper \
-        outdoor_appearance --board-method band_means fft_magnitude eval/methods/sfa.py \
+        outdoor_appearance --board-method band_means fft_magnitude sfa \
         --json eval/results/leaderboard_outdoor_bench.json
     .venv/bin/python eval/bench_leaderboard.py --full-size band_means \
         --json eval/results/leaderboard_full_bench.json

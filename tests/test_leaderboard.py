@@ -16,9 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sfa_gym.leaderboard.plugins import PluginError, load_method
+from sfa_gym.capabilities import Capabilities
 from sfa_gym.leaderboard.tracks import TrackError, list_tracks, load_track, track_from_dict
 from sfa_gym.navigation.controllers import GradientSettings
+from sfa_gym.plugins import PluginError, load_method
 from sfa_gym.recording.cache import RunCache, RunRequest
 from sfa_gym.recording.drivers import GridPositions
 from sfa_gym.sim.env import OmniRoverEnv
@@ -179,7 +180,7 @@ def test_loading_a_plugin_imports_nothing_else_from_its_folder(tmp_path):
     (folder / "method.py").write_text(BAND_MEANS.read_text())
     path_before, modules_before = list(sys.path), set(sys.modules)
     method = load_method(folder / "method.py", {"n_bands": 2})
-    assert method.name == "band_means" and method.args.n_bands == 2
+    assert method.name == "band_means" and method.get_params()["n_bands"] == 2
     assert not list(folder.glob("*.imported"))
     assert sys.path == path_before
     new = set(sys.modules) - modules_before
@@ -388,6 +389,8 @@ class _MeanColour:
     """A cheap fitted feature model: the mean colour of a panorama, the same for every
     rotation (``transform_rotations``: no rotated views are built)."""
 
+    capabilities = Capabilities(transform_rotations=True)
+
     def transform_rotations(self, panoramas, step):
         means = np.asarray(panoramas, dtype=np.float64).mean(axis=(1, 2))
         return np.repeat(means[:, None, :], panoramas.shape[2] // step, axis=1)
@@ -471,6 +474,7 @@ def test_cached_field_is_the_built_field_and_its_panoramas_serve_every_method(
 MEAN_COLOUR_PLUGIN = """
 from dataclasses import dataclass
 import numpy as np
+from sfa_gym.capabilities import Capabilities
 
 @dataclass(frozen=True)
 class Args:
@@ -478,6 +482,7 @@ class Args:
 
 class MeanColour:
     name = "mean_colour"
+    capabilities = Capabilities(transform_rotations=True)
     def __init__(self, rows):
         self.rows = rows
     def fit(self, views):

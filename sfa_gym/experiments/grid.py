@@ -37,7 +37,7 @@ from sfa_gym.experiments.report import (
     write_results,
 )
 from sfa_gym.localization import random_split_mae
-from sfa_gym.localization.methods import FeatureMethod
+from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols.settings import EnvId, SFASettings, check_choice, check_env_id
 from sfa_gym.rotation import Rotation
 from sfa_gym.sfa.io import save_model

@@ -45,7 +45,7 @@ from sfa_gym.experiments.report import (
 )
 from sfa_gym.geometry import check_rectangle, in_rectangle
 from sfa_gym.localization import mae
-from sfa_gym.localization.methods import FeatureMethod
+from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols.settings import EnvId, SFASettings, check_choice, check_env_id
 from sfa_gym.rotation import Rotation, check_step, spread_indices
 from sfa_gym.sfa.io import save_model

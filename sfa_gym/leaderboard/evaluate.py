@@ -24,8 +24,9 @@ import numpy as np
 from numpy.typing import NDArray
 from threadpoolctl import threadpool_limits
 
-from sfa_gym.leaderboard.plugins import load_method
+from sfa_gym.capabilities import get_capabilities
 from sfa_gym.leaderboard.tracks import Track, load_track
+from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache, RunRequest
 
 __all__ = ["HIGHER_IS_BETTER", "Task", "run_task"]
@@ -65,7 +66,7 @@ def _mean_percent(result: Any) -> float:
 
 
 def _regressor(method: Any) -> str:
-    return str(getattr(method, "regressor", "linear"))
+    return get_capabilities(method).regressor
 
 
 def _grid_run(
