@@ -336,7 +336,7 @@ def test_cli_run_and_table_write_results_with_provenance(tmp_path, capsys):
             "leaderboard",
             "run",
             "--method",
-            str(BAND_MEANS),
+            "band_means",  # the built-in, by name
             "--track",
             "tiny",
             "--method-args",
@@ -346,6 +346,7 @@ def test_cli_run_and_table_write_results_with_provenance(tmp_path, capsys):
     )
     assert status == 0
     full = json.loads((results / "tiny" / "band_means[n_bands=2].json").read_text())
+    assert full["method"]["path"] == str(BAND_MEANS)
     assert full["score"]["n"] == 2 and full["score"]["interval"] == "t"
     lo, hi = full["score"]["ci95"]
     assert lo < full["score"]["mean"] < hi
@@ -357,6 +358,10 @@ def test_cli_run_and_table_write_results_with_provenance(tmp_path, capsys):
 
     assert main(["leaderboard", "run", "--method", str(BAND_MEANS), "--track", "nope", *common])
     assert "'nope' is not a track" in capsys.readouterr().err
+    # a value of the wrong type is refused before any task, naming the field
+    wrong = ["leaderboard", "run", "--method", "band_means", "--method-args", "n_bands=two"]
+    assert main([*wrong, "--track", "tiny", *common]) == 2
+    assert "argument n_bands must be int, got 'two'" in capsys.readouterr().err
 
 
 # -------------------------------------------------------------------------- navigation
