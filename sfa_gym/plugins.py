@@ -34,10 +34,18 @@ arguments, stored unchanged (so ``get_params``, ``set_params`` and ``sklearn.bas
 subclass ``sklearn.base.BaseEstimator`` and ``TransformerMixin``), checked in ``fit``, and the
 fitted state ends in ``_``. The built-in methods' ``__init__`` takes the fields of their ``Args``.
 
-Optional capabilities (rotation shortcuts, rotation invariance, the regression the features are
-paired with, extra regressions to report) are declared in a class attribute (or a property)
-``capabilities``, a :class:`~sfa_gym.capabilities.Capabilities`, and read with
-:func:`~sfa_gym.capabilities.get_capabilities`; see :mod:`sfa_gym.capabilities`.
+Optional capabilities are declared in one way: a class attribute ``capabilities`` (a property
+when a parameter decides it), a :class:`~sfa_gym.capabilities.Capabilities` with
+
+- ``fit_rotations``: has ``fit_rotations(panoramas)``, fitting on every rotation of each panorama
+  with its own ``rotation``;
+- ``transform_rotations``: has ``transform_rotations(panoramas, step) -> (L, W // step, k)``;
+- ``rotation_invariant``: column statistics; each full-width panorama is transformed once;
+- ``regressor``: the regression the features are paired with (default ``"linear"``);
+- ``extra_regressors``: regressions ``sfa-gym localize`` reports besides those two.
+
+The library reads them with :func:`~sfa_gym.capabilities.get_capabilities` and nothing else; a
+method that declares none gets the defaults (no shortcut, linear regression).
 
 A **controller** file also defines ``make_controller(rover, weights, **args)``: a fresh
 controller for a :class:`~sfa_gym.navigation.sensors.Rover` and the cost weights of the features
@@ -63,13 +71,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import (
-    Any,
-    ClassVar,
-    Literal,
-    Protocol,
-    runtime_checkable,
-)
+from typing import Any, ClassVar, Literal, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
