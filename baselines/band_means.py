@@ -15,9 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.exceptions import NotFittedError
 
-from sfa_gym.localization.methods import check_views, iter_chunks
+from sfa_gym.plugins import Capabilities, check_views, iter_chunks
 
 
 @dataclass(frozen=True)
@@ -58,23 +59,30 @@ def band_means(
     return out.reshape(n, 3 * n_bands)
 
 
-class BandMeans:
-    """Feature method: :func:`band_means` of each view."""
+class BandMeans(TransformerMixin, BaseEstimator):
+    """Feature method: :func:`band_means` of each view; the parameters are the fields of
+    :class:`Args` (their defaults too)."""
 
     name = "band_means"
-    extra_regressors = ("map",)
-    """regressions reported besides ``linear`` and ``regressor``"""
-    rotation_invariant = True
-    """a full-width rotated view (a circular shift of the columns) has the panorama's features"""
 
-    def __init__(self, args: Args = Args()) -> None:
-        self.args = args
-        self.regressor = args.regressor
+    def __init__(
+        self, n_bands: int = Args.n_bands, regressor: str = Args.regressor, chunk: int = Args.chunk
+    ) -> None:
+        self.n_bands = n_bands
+        self.regressor = regressor
+        self.chunk = chunk
+
+    @property
+    def capabilities(self) -> Capabilities:
+        # a full-width rotated view (a circular shift of the columns) has the panorama's features
+        return Capabilities(
+            rotation_invariant=True, regressor=self.regressor, extra_regressors=("map",)
+        )
 
     def fit(self, views: NDArray[np.uint8], sequence_ids: NDArray | None = None) -> BandMeans:
         """Record ``input_shape_`` (nothing to learn); ``views (N, H, W, 3)`` uint8."""
         views = check_views(views)
-        band_edges(views.shape[1], self.args.n_bands)
+        band_edges(views.shape[1], self.n_bands)
         self.input_shape_ = tuple(views.shape[1:])
         return self
 
@@ -82,9 +90,7 @@ class BandMeans:
         """``(N, H, W, 3)`` uint8 -> ``(N, 3 * n_bands)`` float64."""
         if not hasattr(self, "input_shape_"):
             raise NotFittedError("BandMeans is not fitted yet; call fit(views) first")
-        return band_means(views, self.args.n_bands, self.args.chunk)
+        return band_means(views, self.n_bands, self.chunk)
 
 
-def make_method(**kwargs) -> BandMeans:
-    """A :class:`BandMeans` with ``Args(**kwargs)``."""
-    return BandMeans(Args(**kwargs))
+METHOD = BandMeans

@@ -16,9 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.exceptions import NotFittedError
 
-from sfa_gym.localization.methods import check_views, iter_chunks
+from sfa_gym.plugins import Capabilities, check_views, iter_chunks
 
 
 @dataclass(frozen=True)
@@ -73,23 +74,35 @@ def fft_magnitude(
     return out.reshape(n, -1)
 
 
-class FFTMagnitude:
-    """Feature method: :func:`fft_magnitude` of each view."""
+class FFTMagnitude(TransformerMixin, BaseEstimator):
+    """Feature method: :func:`fft_magnitude` of each view; the parameters are the fields of
+    :class:`Args` (their defaults too)."""
 
     name = "fft_magnitude"
-    extra_regressors = ("map",)
-    """regressions reported besides ``linear`` and ``regressor``"""
-    rotation_invariant = True
-    """a full-width rotated view (a circular shift of the columns) has the panorama's features"""
 
-    def __init__(self, args: Args = Args()) -> None:
-        self.args = args
-        self.regressor = args.regressor
+    def __init__(
+        self,
+        n_bands: int = Args.n_bands,
+        n_frequencies: int = Args.n_frequencies,
+        regressor: str = Args.regressor,
+        chunk: int = Args.chunk,
+    ) -> None:
+        self.n_bands = n_bands
+        self.n_frequencies = n_frequencies
+        self.regressor = regressor
+        self.chunk = chunk
+
+    @property
+    def capabilities(self) -> Capabilities:
+        # a full-width rotated view (a circular shift of the columns) has the panorama's features
+        return Capabilities(
+            rotation_invariant=True, regressor=self.regressor, extra_regressors=("map",)
+        )
 
     def fit(self, views: NDArray[np.uint8], sequence_ids: NDArray | None = None) -> FFTMagnitude:
         """Record ``input_shape_`` (nothing to learn); ``views (N, H, W, 3)`` uint8."""
         views = check_views(views)
-        _check_args(views.shape[1], views.shape[2], self.args.n_bands, self.args.n_frequencies)
+        _check_args(views.shape[1], views.shape[2], self.n_bands, self.n_frequencies)
         self.input_shape_ = tuple(views.shape[1:])
         return self
 
@@ -97,10 +110,7 @@ class FFTMagnitude:
         """``(N, H, W, 3)`` uint8 -> ``(N, n_bands * n_frequencies * 3)`` float64."""
         if not hasattr(self, "input_shape_"):
             raise NotFittedError("FFTMagnitude is not fitted yet; call fit(views) first")
-        a = self.args
-        return fft_magnitude(views, a.n_bands, a.n_frequencies, a.chunk)
+        return fft_magnitude(views, self.n_bands, self.n_frequencies, self.chunk)
 
 
-def make_method(**kwargs) -> FFTMagnitude:
-    """An :class:`FFTMagnitude` with ``Args(**kwargs)``."""
-    return FFTMagnitude(Args(**kwargs))
+METHOD = FFTMagnitude

@@ -19,10 +19,11 @@ import cv2
 import numpy as np
 import sklearn.decomposition
 from numpy.typing import NDArray
+from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.exceptions import NotFittedError
 from tqdm.auto import tqdm
 
-from sfa_gym.localization.methods import check_views, iter_chunks
+from sfa_gym.plugins import Capabilities, check_views, iter_chunks
 
 
 @dataclass(frozen=True)
@@ -67,8 +68,9 @@ def _round_off(data: NDArray[np.float64], mean: NDArray[np.float64]) -> float:
     return float(data.shape[1] * np.finfo(np.float64).eps * max(1.0, float(mean @ mean)))
 
 
-class PCA:
-    """Feature method: projection of shrunk views on their principal components.
+class PCA(TransformerMixin, BaseEstimator):
+    """Feature method: projection of shrunk views on their principal components; the parameters
+    are the fields of :class:`Args` (their defaults too).
 
     Attributes (after ``fit``):
         pca_: the fitted ``sklearn.decomposition.PCA``.
@@ -79,39 +81,54 @@ class PCA:
     """
 
     name = "pca"
-    extra_regressors = ("map",)
-    """regressions reported besides ``linear`` and ``regressor``"""
 
-    def __init__(self, args: Args = Args()) -> None:
-        self.args = args
-        self.regressor = args.regressor
+    def __init__(
+        self,
+        n_components: int = Args.n_components,
+        shrink: int = Args.shrink,
+        whiten: bool = Args.whiten,
+        regressor: str = Args.regressor,
+        chunk: int = Args.chunk,
+        progress: bool = Args.progress,
+    ) -> None:
+        self.n_components = n_components
+        self.shrink = shrink
+        self.whiten = whiten
+        self.regressor = regressor
+        self.chunk = chunk
+        self.progress = progress
+
+    @property
+    def capabilities(self) -> Capabilities:
+        return Capabilities(regressor=self.regressor, extra_regressors=("map",))
 
     def fit(self, views: NDArray[np.uint8], sequence_ids: NDArray | None = None) -> PCA:
         """Fit on training ``views (N, H, W, 3)`` uint8 (their order is irrelevant to PCA)."""
         views = check_views(views)
-        a = self.args
         n = len(views)
-        dim = shrink_views(views[:1], a.shrink).shape[1]
-        if isinstance(a.n_components, bool) or not isinstance(a.n_components, int):
-            raise TypeError(f"n_components must be an int, got {a.n_components!r}")
-        if not 1 <= a.n_components <= min(n - 1, dim):
+        dim = shrink_views(views[:1], self.shrink).shape[1]
+        n_components = self.n_components
+        if isinstance(n_components, bool) or not isinstance(n_components, int):
+            raise TypeError(f"n_components must be an int, got {n_components!r}")
+        if not 1 <= n_components <= min(n - 1, dim):
             raise ValueError(
                 f"n_components must lie in [1, {min(n - 1, dim)}] for {n} views of {dim} "
-                f"values each (N - 1 and D bound the rank), got {a.n_components}"
+                f"values each (N - 1 and D bound the rank), got {n_components}"
             )
         shrunk = np.empty((n, dim))
-        for part in tqdm(list(iter_chunks(n, a.chunk)), desc="PCA", disable=not a.progress):
-            shrunk[part] = shrink_views(views[part], a.shrink)
+        parts = list(iter_chunks(n, self.chunk))
+        for part in tqdm(parts, desc="PCA", disable=not self.progress):
+            shrunk[part] = shrink_views(views[part], self.shrink)
         # svd_flip makes the largest entry of each component positive: the same data give the
         # same features.
         self.pca_ = sklearn.decomposition.PCA(
-            a.n_components, whiten=a.whiten, svd_solver="covariance_eigh"
+            n_components, whiten=self.whiten, svd_solver="covariance_eigh"
         ).fit(shrunk)
         self.components_ = self.pca_.components_
         self.explained_variance_ = self.pca_.explained_variance_
         self.mean_ = self.pca_.mean_
         # Eigenvalues of a covariance with fewer directions than components are round-off.
-        if a.whiten and np.any(self.explained_variance_ <= _round_off(shrunk, self.mean_)):
+        if self.whiten and np.any(self.explained_variance_ <= _round_off(shrunk, self.mean_)):
             raise ValueError(
                 "the training views vary along fewer than n_components directions, so whitening "
                 "would divide by zero; use fewer components, more varied views or whiten=False"
@@ -130,11 +147,9 @@ class PCA:
                 f"got {tuple(views.shape[1:])}"
             )
         out = np.empty((len(views), len(self.components_)))
-        for part in iter_chunks(len(views), self.args.chunk):
-            out[part] = self.pca_.transform(shrink_views(views[part], self.args.shrink))
+        for part in iter_chunks(len(views), self.chunk):
+            out[part] = self.pca_.transform(shrink_views(views[part], self.shrink))
         return out
 
 
-def make_method(**kwargs) -> PCA:
-    """A :class:`PCA` with ``Args(**kwargs)``."""
-    return PCA(Args(**kwargs))
+METHOD = PCA

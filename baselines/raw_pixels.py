@@ -14,9 +14,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.exceptions import NotFittedError
 
-from sfa_gym.localization.methods import check_views
+from sfa_gym.plugins import Capabilities, check_views
 
 
 @dataclass(frozen=True)
@@ -51,19 +52,27 @@ def raw_pixels(views: NDArray[np.uint8], height: int = 4, width: int = 35) -> ND
     return out.reshape(len(views), -1) / 255.0
 
 
-class RawPixels:
-    """Feature method: :func:`raw_pixels` of each view."""
+class RawPixels(TransformerMixin, BaseEstimator):
+    """Feature method: :func:`raw_pixels` of each view; the parameters are the fields of
+    :class:`Args` (their defaults too)."""
 
     name = "raw_pixels"
 
-    def __init__(self, args: Args = Args()) -> None:
-        self.args = args
-        self.regressor = args.regressor
+    def __init__(
+        self, height: int = Args.height, width: int = Args.width, regressor: str = Args.regressor
+    ) -> None:
+        self.height = height
+        self.width = width
+        self.regressor = regressor
+
+    @property
+    def capabilities(self) -> Capabilities:
+        return Capabilities(regressor=self.regressor)
 
     def fit(self, views: NDArray[np.uint8], sequence_ids: NDArray | None = None) -> RawPixels:
         """Record ``input_shape_`` (nothing to learn); ``views (N, H, W, 3)`` uint8."""
         views = check_views(views)
-        _check_size(views.shape[1:3], self.args.height, self.args.width)
+        _check_size(views.shape[1:3], self.height, self.width)
         self.input_shape_ = tuple(views.shape[1:])
         return self
 
@@ -71,9 +80,7 @@ class RawPixels:
         """``(N, H, W, 3)`` uint8 -> ``(N, height * width * 3)`` float64."""
         if not hasattr(self, "input_shape_"):
             raise NotFittedError("RawPixels is not fitted yet; call fit(views) first")
-        return raw_pixels(views, self.args.height, self.args.width)
+        return raw_pixels(views, self.height, self.width)
 
 
-def make_method(**kwargs) -> RawPixels:
-    """A :class:`RawPixels` with ``Args(**kwargs)``."""
-    return RawPixels(Args(**kwargs))
+METHOD = RawPixels

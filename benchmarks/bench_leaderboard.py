@@ -32,7 +32,7 @@ Usage (from the repository root; ~15-20 min on 2 cores, plus the outdoor tracks)
     .venv/bin/python -m benchmarks.bench_leaderboard
     .venv/bin/python -m benchmarks.bench_leaderboard --skip-board --cache ~/.cache/sfa-gym/runs
     .venv/bin/python -m benchmarks.bench_leaderboard --skip-ray --tracks outdoor_paper \
-        outdoor_appearance --board-method band_means fft_magnitude eval/methods/sfa.py \
+        outdoor_appearance --board-method band_means fft_magnitude sfa \
         --json published/benchmarks/leaderboard_outdoor_bench.json
     .venv/bin/python -m benchmarks.bench_leaderboard --full-size band_means \
         --json published/benchmarks/leaderboard_full_bench.json

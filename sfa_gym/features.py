@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym.capabilities import Capabilities, get_capabilities
 from sfa_gym.rotation import rotated_views
 
 __all__ = ["EmbeddedFeatures", "rotation_averaged_features"]
@@ -24,8 +25,9 @@ def rotation_averaged_features(
 
     Args:
         model: a fitted feature model: ``transform(views (N, H, w, 3) uint8) -> (N, k)``, and
-            optionally ``transform_rotations(panoramas, step) -> (L, K, k)`` (hierarchical SFA
-            computes all rotations at once, its lower layers only once per panorama), or
+            optionally (declared in its :class:`~sfa_gym.capabilities.Capabilities`)
+            ``transform_rotations(panoramas, step) -> (L, K, k)`` (hierarchical SFA computes
+            all rotations at once, its lower layers only once per panorama), or
             ``rotation_averaged(panoramas, step, window) -> (L, k)`` (a model whose features
             are a function of another model's averages: :class:`EmbeddedFeatures`).
         panoramas: ``(L, H, W, 3)`` uint8.
@@ -43,9 +45,10 @@ def rotation_averaged_features(
             f"panoramas must be (L, H, W, 3) uint8, got shape {panoramas.shape} "
             f"and dtype {panoramas.dtype}"
         )
-    if hasattr(model, "rotation_averaged"):
+    capabilities = get_capabilities(model)
+    if capabilities.rotation_averaged:
         return np.asarray(model.rotation_averaged(panoramas, step, window), np.float64)
-    if hasattr(model, "transform_rotations"):
+    if capabilities.transform_rotations:
         return np.asarray(model.transform_rotations(panoramas, step=step), np.float64).mean(1)
     if window is None:
         shape = getattr(model, "input_shape_", None)
@@ -68,6 +71,8 @@ class EmbeddedFeatures:
         embedding: a fitted ``transform((n, k) base features) -> (n, m)``.
         name: the features' name in results and figures.
     """
+
+    capabilities = Capabilities(rotation_averaged=True)
 
     def __init__(self, base: Any, embedding: Any, name: str = "embedded") -> None:
         self.base = base

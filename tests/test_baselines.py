@@ -1,22 +1,26 @@
-"""Baseline feature methods: invariances, known answers, PCA against an SVD, bad input."""
+"""Built-in feature methods: scikit-learn estimators (clone, get_params), their declared
+capabilities, invariances, known answers, PCA against an SVD, bad input."""
 
 from __future__ import annotations
 
 import ast
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
+from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
-from sfa_gym.localization.methods import load_method_file
-from sfa_gym.rotation import rotated_views
+from sfa_gym.plugins import Capabilities, get_capabilities, load_method_plugin
+from sfa_gym.protocols.settings import SFASettings
+from sfa_gym.rotation import Rotation, rotated_views
 
 BASELINES = Path(__file__).resolve().parents[1] / "baselines"
 
 
 def _method(name: str, **kwargs):
-    return load_method_file(BASELINES / f"{name}.py")(**kwargs)
+    return load_method_plugin(BASELINES / f"{name}.py")(**kwargs)
 
 
 def _views(n: int = 6, h: int = 40, w: int = 350, seed: int = 0) -> np.ndarray:
@@ -38,10 +42,84 @@ def test_baselines_import_only_the_library_not_each_other():
                 assert top != "baselines" and top not in stems, f"{path.name} imports {name}"
 
 
+BUILT_IN = ["band_means", "fft_magnitude", "raw_pixels", "pca", "sfa"]
+
+
+@pytest.mark.parametrize("name", BUILT_IN)
+def test_every_built_in_method_is_a_scikit_learn_estimator(name):
+    method = _method(name)
+    params = method.get_params()
+    copy = clone(method)
+    assert copy is not method and type(copy) is type(method)
+    assert copy.get_params() == params
+    if name == "sfa":  # its arguments are the SFA settings, held whole
+        assert params == {"settings": SFASettings(), "rotation": Rotation(), "progress": False}
+        assert clone(_method(name, node_dim=16)).get_params()["settings"].node_dim == 16
+        return
+    # the estimator's parameters are the fields of Args, with the same defaults
+    factory = load_method_plugin(BASELINES / f"{name}.py")
+    assert params == factory.arguments()
+    first = dataclasses.fields(factory.args_type)[0].name
+    changed = clone(method).set_params(**{first: 2})
+    assert changed.get_params()[first] == 2 and method.get_params()[first] == params[first]
+
+
+@pytest.mark.parametrize("name", ["band_means", "fft_magnitude", "raw_pixels", "pca"])
+def test_a_clone_is_unfitted_and_fits_to_the_same_features(name):
+    views = _views(12)
+    fitted = _method(name, regressor="map").fit(views)
+    copy = clone(fitted)
+    assert not hasattr(copy, "input_shape_") and copy.get_params()["regressor"] == "map"
+    np.testing.assert_array_equal(copy.fit(views).transform(views), fitted.transform(views))
+
+
+def test_the_capabilities_of_each_built_in_method():
+    expected = {
+        "band_means": Capabilities(
+            rotation_invariant=True, regressor="quadratic", extra_regressors=("map",)
+        ),
+        "fft_magnitude": Capabilities(
+            rotation_invariant=True, regressor="linear", extra_regressors=("map",)
+        ),
+        "raw_pixels": Capabilities(regressor="knn"),
+        "pca": Capabilities(regressor="quadratic", extra_regressors=("map",)),
+        "sfa": Capabilities(fit_rotations=True, transform_rotations=True, regressor="linear"),
+    }
+    assert {name: get_capabilities(_method(name)) for name in BUILT_IN} == expected
+    # the paired regression is a parameter where the method has one
+    assert get_capabilities(_method("band_means", regressor="map")).regressor == "map"
+
+
+def test_a_capability_without_its_method_is_refused():
+    class Liar:
+        name = "liar"
+        capabilities = Capabilities(transform_rotations=True)
+
+    with pytest.raises(TypeError, match="liar declares the capability transform_rotations"):
+        get_capabilities(Liar())
+    Liar.capabilities = {"rotation_invariant": True}  # type: ignore[assignment]
+    with pytest.raises(TypeError, match="capabilities must be a sfa_gym.capabilities"):
+        get_capabilities(Liar())
+    assert get_capabilities(object()) == Capabilities()  # nothing declared: nothing used
+
+
+def test_the_built_in_sfa_trains_the_settings_it_is_given():
+    from sfa_gym.protocols.features import fit_method, view_features
+    from sfa_gym.sfa.synthetic import synthetic_panoramas
+
+    panoramas = synthetic_panoramas(8, 10, 40, seed=1)
+    method = _method("sfa", network="tiny", node_dim=6, n_outputs=3)
+    fitted = fit_method(method, panoramas, Rotation())
+    assert fitted.model_.n_outputs == 3
+    assert view_features(fitted, panoramas, Rotation(), progress=False).shape == (8, 8, 3)
+    with pytest.raises(ValueError, match="n_outputs must be a positive int"):
+        _method("sfa", n_outputs=0)
+
+
 @pytest.mark.parametrize("name", ["band_means", "fft_magnitude", "raw_pixels", "pca"])
 def test_only_column_statistics_declare_rotation_invariance(name):
     # the evaluation loop transforms each panorama once for these: the claim must hold
-    declared = getattr(_method(name), "rotation_invariant", False)
+    declared = get_capabilities(_method(name)).rotation_invariant
     assert declared == (name in ("band_means", "fft_magnitude"))
 
 
@@ -49,7 +127,7 @@ def test_only_column_statistics_declare_rotation_invariance(name):
 def test_rotation_invariant_baselines_under_every_circular_shift(name):
     views = _views(2, w=60)
     method = _method(name).fit(views)
-    assert method.rotation_invariant
+    assert get_capabilities(method).rotation_invariant
     reference = method.transform(views)
     for panorama, expected in zip(views, reference, strict=True):
         rotated, _ = rotated_views(panorama, step=1)  # all 60 shifts, np.roll(-k) each

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import sfa_gym
-from sfa_gym.cli.plugins import checkout_root, default_plugin_folder, load_plugins
+from sfa_gym.plugins import checkout_root, default_plugin_folder, load_plugins
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -98,7 +98,7 @@ def test_an_installed_wheel_uses_its_shipped_plugins_and_not_a_foreign_baselines
     (site / "baselines").mkdir()
     (site / "baselines" / "evil.py").write_text(EVIL)
     code = (
-        "import sfa_gym; from sfa_gym.cli.plugins import load_plugins\n"
+        "import sfa_gym; from sfa_gym.plugins import load_plugins\n"
         "print(sfa_gym.__file__)\n"
         "print(sorted(method.name for method, _ in load_plugins(None)))"
     )

@@ -75,9 +75,12 @@ def test_the_sfa_rotation_shortcut_agrees_with_transforming_every_view(sfa, pano
     np.testing.assert_allclose(picked, every_view[:, [7, 1, 3]], atol=1e-6)
 
 
-def test_the_rotation_step_cannot_disagree(sfa, panoramas):
-    with pytest.raises(ValueError, match="rotation steps of 4 columns, got step=8"):
-        view_features(sfa, panoramas, Rotation(step=8), progress=False)
+def test_sfa_fits_on_its_own_rotation_and_reads_features_at_any_step(sfa, panoramas):
+    # a feature field averages over every column of a network trained with coarser steps
+    coarse = view_features(sfa, panoramas, Rotation(step=8), progress=False)
+    views = Rotation(step=8).views(panoramas)[0]
+    every_view = sfa.transform(views.reshape(-1, *views.shape[2:])).reshape(12, 5, 4)
+    np.testing.assert_allclose(coarse, every_view, atol=1e-6)
     unfitted = SlowFeatureMethod(sfa.settings, Rotation(step=4), progress=False)
     with pytest.raises(ValueError, match="set up for Rotation.step=4.*Rotation.step=8"):
         fit_method(unfitted, panoramas, Rotation(step=8))
@@ -191,11 +194,11 @@ def test_both_protocols_nest_the_same_sfa_settings(protocol):
 
 
 def test_rotation_invariant_methods_transform_each_panorama_once(panoramas):
-    from sfa_gym.cli.plugins import default_plugin_folder
-    from sfa_gym.localization.methods import load_method_file
+    from sklearn.base import clone
 
-    folder, _ = default_plugin_folder()
-    band_means = load_method_file(folder / "band_means.py")(n_bands=2)
+    from sfa_gym.plugins import load_method
+
+    band_means = load_method("band_means", {"n_bands": 2})
     calls = []
 
     class Counting(type(band_means)):
@@ -203,11 +206,11 @@ def test_rotation_invariant_methods_transform_each_panorama_once(panoramas):
             calls.append(len(views))
             return super().transform(views)
 
-    method = fit_method(Counting(band_means.args), panoramas, Rotation(step=4))
+    method = fit_method(Counting(**band_means.get_params()), panoramas, Rotation(step=4))
     fast = view_features(method, panoramas, Rotation(step=4), progress=False)
     assert calls == [len(panoramas)]  # the panoramas themselves, no rotated views
     views = Rotation(step=4).views(panoramas)[0]
-    brute = band_means.fit(panoramas).transform(views.reshape(-1, *views.shape[2:]))
+    brute = clone(band_means).fit(panoramas).transform(views.reshape(-1, *views.shape[2:]))
     np.testing.assert_array_equal(fast, brute.reshape(fast.shape))
     # narrower views are not circular shifts of the panorama: every view is transformed
     calls.clear()

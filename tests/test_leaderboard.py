@@ -16,9 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sfa_gym.leaderboard.plugins import PluginError, load_method
+from sfa_gym.capabilities import Capabilities
 from sfa_gym.leaderboard.tracks import TrackError, list_tracks, load_track, track_from_dict
 from sfa_gym.navigation.controllers import GradientSettings
+from sfa_gym.plugins import PluginError, load_method
 from sfa_gym.recording.cache import RunCache, RunRequest
 from sfa_gym.recording.drivers import GridPositions
 from sfa_gym.sim.env import OmniRoverEnv
@@ -207,7 +208,7 @@ def test_loading_a_plugin_imports_nothing_else_from_its_folder(tmp_path):
     (folder / "method.py").write_text(BAND_MEANS.read_text())
     path_before, modules_before = list(sys.path), set(sys.modules)
     method = load_method(folder / "method.py", {"n_bands": 2})
-    assert method.name == "band_means" and method.args.n_bands == 2
+    assert method.name == "band_means" and method.get_params()["n_bands"] == 2
     assert not list(folder.glob("*.imported"))
     assert sys.path == path_before
     new = set(sys.modules) - modules_before
@@ -390,7 +391,7 @@ def test_cli_run_and_table_write_results_with_provenance(tmp_path, capsys):
             "leaderboard",
             "run",
             "--method",
-            str(BAND_MEANS),
+            "band_means",  # the built-in, by name
             "--track",
             "tiny",
             "--method-args",
@@ -400,6 +401,7 @@ def test_cli_run_and_table_write_results_with_provenance(tmp_path, capsys):
     )
     assert status == 0
     full = json.loads((results / "tiny" / "band_means[n_bands=2].json").read_text())
+    assert full["method"]["path"] == str(BAND_MEANS)
     assert full["score"]["n"] == 2 and full["score"]["interval"] == "t"
     lo, hi = full["score"]["ci95"]
     assert lo < full["score"]["mean"] < hi
@@ -411,6 +413,10 @@ def test_cli_run_and_table_write_results_with_provenance(tmp_path, capsys):
 
     assert main(["leaderboard", "run", "--method", str(BAND_MEANS), "--track", "nope", *common])
     assert "'nope' is not a track" in capsys.readouterr().err
+    # a value of the wrong type is refused before any task, naming the field
+    wrong = ["leaderboard", "run", "--method", "band_means", "--method-args", "n_bands=two"]
+    assert main([*wrong, "--track", "tiny", *common]) == 2
+    assert "argument n_bands must be int, got 'two'" in capsys.readouterr().err
 
 
 # -------------------------------------------------------------------------- navigation
@@ -442,6 +448,8 @@ NAV_TINY = {
 class _MeanColour:
     """A cheap fitted feature model: the mean colour of a panorama, the same for every
     rotation (``transform_rotations``: no rotated views are built)."""
+
+    capabilities = Capabilities(transform_rotations=True)
 
     def transform_rotations(self, panoramas, step):
         means = np.asarray(panoramas, dtype=np.float64).mean(axis=(1, 2))
@@ -526,6 +534,7 @@ def test_cached_field_is_the_built_field_and_its_panoramas_serve_every_method(
 MEAN_COLOUR_PLUGIN = """
 from dataclasses import dataclass
 import numpy as np
+from sfa_gym.capabilities import Capabilities
 
 @dataclass(frozen=True)
 class Args:
@@ -533,6 +542,7 @@ class Args:
 
 class MeanColour:
     name = "mean_colour"
+    capabilities = Capabilities(transform_rotations=True)
     def __init__(self, rows):
         self.rows = rows
     def fit(self, views):

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from sfa_gym.localization import eta, random_split_mae
-from sfa_gym.localization.methods import load_method_file
 from sfa_gym.localization.plots import estimate_vs_truth, firing_maps
 from sfa_gym.localization.regression import LinearRegressor
+from sfa_gym.plugins import load_method_plugin
 from sfa_gym.rotation import rotated_views
 from sfa_gym.sim.camera import PanoramaSpec
 from sfa_gym.sim.env import OmniRoverEnv
@@ -38,7 +38,7 @@ def grid_views():
 def _features(name: str, views: np.ndarray) -> np.ndarray:
     n, k = views.shape[:2]
     flat = views.reshape(n * k, *views.shape[2:])
-    method = load_method_file(BASELINES / f"{name}.py")().fit(flat)
+    method = load_method_plugin(BASELINES / f"{name}.py")().fit(flat)
     return method.transform(flat).reshape(n, k, -1)
 
 

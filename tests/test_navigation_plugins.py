@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 import sfa_gym  # noqa: F401  (registers the envs)
-from sfa_gym.localization.methods import PluginError
 from sfa_gym.navigation.evaluate import run_episodes, summarize
 from sfa_gym.navigation.field import FeatureField
-from sfa_gym.navigation.plugins import ROVER_SENSORS, Rover, SensorsOnly, load_controller_file
+from sfa_gym.navigation.sensors import ROVER_SENSORS, Rover, SensorsOnly
+from sfa_gym.plugins import PluginError, load_controller_plugin
 
 ROOT = Path(__file__).resolve().parents[1]
 RUN_AND_TUMBLE = ROOT / "baselines" / "controllers" / "run_and_tumble.py"
@@ -46,19 +46,22 @@ ROVER = Rover(v_max=0.4, w_max=1.0, dt=0.1, range_angles=(0.0,))
 
 def test_a_controller_file_is_refused_naming_what_is_missing(tmp_path):
     with pytest.raises(PluginError, match="no make_controller"):
-        load_controller_file(_plugin(tmp_path, HEADER + ARGS + CONTROLLER))
+        load_controller_plugin(_plugin(tmp_path, HEADER + ARGS + CONTROLLER))
     with pytest.raises(PluginError, match="no Args dataclass"):
-        load_controller_file(_plugin(tmp_path, HEADER + CONTROLLER + MAKE))
+        load_controller_plugin(_plugin(tmp_path, HEADER + CONTROLLER + MAKE))
     broken = HEADER + ARGS + "def make_controller(rover, weights, speed=0.2):\n    return 3\n"
-    factory = load_controller_file(_plugin(tmp_path, broken))
+    factory = load_controller_plugin(_plugin(tmp_path, broken))
     with pytest.raises(PluginError, match=r"not a controller.*\['name', 'reset', 'act'\]"):
         factory(ROVER, [1.0])
     with pytest.raises(FileNotFoundError, match="no controller file"):
-        load_controller_file(tmp_path / "missing.py")
-    factory = load_controller_file(_plugin(tmp_path, HEADER + ARGS + CONTROLLER + MAKE))
+        load_controller_plugin(tmp_path / "missing.py")
+    factory = load_controller_plugin(_plugin(tmp_path, HEADER + ARGS + CONTROLLER + MAKE))
     with pytest.raises(ValueError, match="unknown argument 'sped'"):
         factory(ROVER, [1.0], {"sped": 1.0})
     assert factory.arguments({"speed": 0.3}) == {"speed": 0.3}
+    assert factory.arguments({"speed": 1}) == {"speed": 1.0}  # a JSON int for a float field
+    with pytest.raises(ValueError, match=r"straight\.py: argument speed must be float, got 'fast'"):
+        factory(ROVER, [1.0], {"speed": "fast"})
 
 
 def test_a_controller_sees_the_rover_sensors_and_no_ground_truth(tmp_path):
@@ -69,7 +72,7 @@ def test_a_controller_sees_the_rover_sensors_and_no_ground_truth(tmp_path):
     try:
         obs, info = env.reset(seed=3)
         assert {"x", "y", "goal"} <= set(info)  # the env reports the ground truth ...
-        controller = load_controller_file(_plugin(tmp_path, spy))(Rover.of(env), [1.0, 1.0])
+        controller = load_controller_plugin(_plugin(tmp_path, spy))(Rover.of(env), [1.0, 1.0])
         controller.reset(obs, info)
         assert controller.controller.seen == sorted(ROVER_SENSORS)  # ... the controller not
         with pytest.raises(KeyError, match="'x'"):
@@ -92,7 +95,8 @@ def test_run_and_tumble_reaches_goals_on_a_cost_without_false_minima():
     env = gym.make("sfa_gym/OmniRoverNav-v0", feature_field=_position_field())
     try:
         assert env.unwrapped.arena_bounds == pytest.approx((-3.0, 3.0, -3.0, 3.0))
-        factory = load_controller_file(RUN_AND_TUMBLE)
+        factory = load_controller_plugin("run_and_tumble")  # the built-in, by name
+        assert factory.path == RUN_AND_TUMBLE
         episodes = run_episodes(env, factory(Rover.of(env), [1.0, 1.0]), range(20), False)
         again = run_episodes(env, factory(Rover.of(env), [1.0, 1.0]), range(3), False)
     finally:

@@ -79,7 +79,7 @@ def test_short_outdoor_drive_end_to_end(tmp_path, capsys):
     out = tmp_path / "outdoor"
     baselines = tmp_path / "plugins"
     baselines.mkdir()
-    from sfa_gym.cli.plugins import default_plugin_folder
+    from sfa_gym.plugins import default_plugin_folder
 
     folder, _ = default_plugin_folder()
     (baselines / "band_means.py").write_text((folder / "band_means.py").read_text())

@@ -16,8 +16,8 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="the test extra installs stable-baselines3")
 
-from sfa_gym.localization.methods import load_method_file  # noqa: E402
 from sfa_gym.navigation.field import FeatureField  # noqa: E402
+from sfa_gym.plugins import load_method_plugin  # noqa: E402
 from sfa_gym.sim.env import OmniRoverEnv  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -47,7 +47,7 @@ def field_path(tmp_path_factory) -> Path:
         env.reset(options={"pose": (x, y, 0.0)})[0]
         for x, y in rng.uniform((xmin, ymin), (xmax, ymax), size=(20, 2))
     ])  # fmt: skip
-    method = load_method_file(ROOT / "baselines/band_means.py")().fit(train)
+    method = load_method_plugin(ROOT / "baselines/band_means.py")().fit(train)
     field = FeatureField.build(env, method, spacing=0.5, progress=False)
     env.close()
     path = tmp_path_factory.mktemp("field") / "field_band_means.npz"

@@ -21,7 +21,7 @@ from sfa_gym.experiments import (
     run_trajectory_experiment,
 )
 from sfa_gym.geometry import in_rectangle
-from sfa_gym.localization.methods import load_method_file
+from sfa_gym.plugins import load_method_plugin
 from sfa_gym.recording.runfile import load_run
 
 BASELINES = Path(__file__).resolve().parents[1] / "baselines"
@@ -43,7 +43,7 @@ TINY = TrajectoryExperiment(
 @pytest.fixture(scope="module")
 def experiment(tmp_path_factory):
     out = tmp_path_factory.mktemp("trajectory")
-    band_means = load_method_file(BASELINES / "band_means.py")()
+    band_means = load_method_plugin(BASELINES / "band_means.py")()
     results = run_trajectory_experiment(
         TINY, out, methods=[(band_means, ("linear",))], progress=False
     )

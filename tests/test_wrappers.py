@@ -14,7 +14,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import sfa_gym  # noqa: F401  (registers the env ids)
 import sfa_gym.wrappers
-from sfa_gym.localization.methods import load_method_file
+from sfa_gym.plugins import load_method_plugin
 from sfa_gym.rotation import rotated_views
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
 from sfa_gym.sim.camera import PanoramaSpec
@@ -107,7 +107,7 @@ def test_averaged_features_barely_change_when_the_rover_turns(model):
 
 def test_a_fitted_baseline_method_is_a_feature_model(panoramas):
     """A rotation-invariant method gives the same observation with and without averaging."""
-    method = load_method_file(BASELINES / "band_means.py")().fit(panoramas)
+    method = load_method_plugin(BASELINES / "band_means.py")().fit(panoramas)
     single = SlowFeatureObservation(_make_env(), method)
     averaged = SlowFeatureObservation(_make_env(), method, average_rotations=True)
     assert single.observation_space.shape == (24,)

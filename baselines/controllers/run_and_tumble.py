@@ -1,6 +1,6 @@
 """Run and tumble: down the feature cost the way a bacterium climbs a scent, without a gradient.
 
-A navigation controller plug-in (the protocol: :mod:`sfa_gym.navigation.plugins`) and the floor
+A navigation controller plug-in (the contract: :mod:`sfa_gym.plugins`) and the floor
 that gradient following has to beat: it sees what the slow-feature-gradient controller sees (the
 features, the goal's features, the wheel odometry, the range sensor) and minimises the same cost,
 the weighted squared distance ``sum_i w_i (f_i - g_i)^2``, but it never estimates a gradient. It
@@ -65,7 +65,7 @@ class Args:
 
 class RunAndTumble:
     """The controller (see the module docstring) for a ``rover``
-    (:class:`sfa_gym.navigation.plugins.Rover`) and cost ``weights`` ``(k,)``."""
+    (:class:`sfa_gym.navigation.sensors.Rover`) and cost ``weights`` ``(k,)``."""
 
     name = "run_and_tumble"
 
@@ -163,7 +163,8 @@ def main() -> None:
     import sfa_gym  # noqa: F401  (registers the envs)
     from sfa_gym.navigation.evaluate import run_episodes, summarize
     from sfa_gym.navigation.field import FeatureField
-    from sfa_gym.navigation.plugins import Rover, load_controller_file
+    from sfa_gym.navigation.sensors import Rover
+    from sfa_gym.plugins import load_controller_plugin
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--field", type=Path, required=True, help="feature field (.npz)")
@@ -175,7 +176,7 @@ def main() -> None:
     info = field.metadata.get("model_info") or {}
     weights = np.asarray(info.get("cost_weights", np.ones(field.n_features)), float)
     env = gym.make(options.env_id, world_seed=field.metadata["world_seed"], feature_field=field)
-    controller = load_controller_file(__file__)(Rover.of(env), weights)
+    controller = load_controller_plugin(__file__)(Rover.of(env), weights)
     seeds = range(options.first_seed, options.first_seed + options.episodes)
     scores = summarize(run_episodes(env, controller, seeds))["all"]
     print(

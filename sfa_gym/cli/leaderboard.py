@@ -33,8 +33,9 @@ class LeaderboardRun:
     """Score methods on tracks; one result file per (track, method) with a 95 % interval
     across the track's world seeds."""
 
-    method: tuple[Path, ...]
-    """feature-method plug-in files (e.g. baselines/fft_magnitude.py); several: a sweep"""
+    method: tuple[str, ...]
+    """feature-method plug-ins: built-in names (band_means, fft_magnitude, pca, raw_pixels,
+    sfa) or .py files of your own; several: a sweep"""
     track: tuple[str, ...] = ("all",)
     """track names (files of --tracks) or "all" """
     quick: bool = False
@@ -47,9 +48,9 @@ class LeaderboardRun:
     """ray, local Ray only: CPUs it may use (default: all)"""
     method_args: tuple[str, ...] = ()
     """arguments of the methods' Args, NAME=VALUE (e.g. n_bands=4), applied to every method"""
-    controller: Path | None = None
-    """navigation tracks only: a controller plug-in file (e.g.
-    baselines/controllers/run_and_tumble.py) that drives the rover instead of the tracks'
+    controller: str | None = None
+    """navigation tracks only: a controller plug-in, a built-in name (run_and_tumble) or a .py
+    file, that drives the rover instead of the tracks'
     gradient controller; with --track all, the navigation tracks"""
     controller_args: tuple[str, ...] = ()
     """arguments of the controller's Args, NAME=VALUE"""

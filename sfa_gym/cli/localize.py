@@ -36,7 +36,7 @@ class _Protocol:
     """no progress bars"""
 
     def _methods(self) -> list[tuple[Any, tuple[str, ...]]]:
-        from sfa_gym.cli.plugins import load_plugins
+        from sfa_gym.plugins import load_plugins
 
         return [] if self.no_baselines else load_plugins(self.baselines)
 

@@ -30,7 +30,7 @@ from sfa_gym.cli.leaderboard import Leaderboard
 from sfa_gym.cli.localize import Localize, LocalizeOutdoor, LocalizeRun
 from sfa_gym.cli.navigate import Navigate
 from sfa_gym.cli.record import Record
-from sfa_gym.localization.methods import PluginError
+from sfa_gym.plugins import PluginError
 
 __all__ = ["Command", "main"]
 

@@ -29,11 +29,11 @@ class Navigate:
     """no progress bars"""
 
     def run(self) -> int:
-        from sfa_gym.cli.plugins import load_plugins
         from sfa_gym.experiments.navigation import (
             format_navigation_table,
             run_navigation_experiment,
         )
+        from sfa_gym.plugins import load_plugins
 
         self.settings.validate()
         methods = load_plugins(self.baselines, use_default=False)

@@ -29,7 +29,7 @@ from sfa_gym.experiments.common import (
     score_methods,
 )
 from sfa_gym.experiments.report import check_out_folder, results_header, write_results
-from sfa_gym.localization.methods import FeatureMethod
+from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols import grid
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.recording.cache import RunFolder

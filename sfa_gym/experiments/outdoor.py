@@ -51,7 +51,7 @@ from sfa_gym.experiments.trajectory import PAPER_OUTDOOR_RESULTS
 from sfa_gym.geometry import in_rectangle
 from sfa_gym.localization import fit_predict, mae, make_regressor, predict_locations
 from sfa_gym.localization.appearance import Normalisation, normalise_panoramas
-from sfa_gym.localization.methods import FeatureMethod
+from sfa_gym.plugins import FeatureMethod, get_capabilities
 from sfa_gym.protocols.features import fit_method, full_width, invariance_entry, view_features
 from sfa_gym.protocols.settings import SFASettings, check_choice
 from sfa_gym.rotation import Rotation, check_step, spread_indices
@@ -389,7 +389,7 @@ def run_outdoor_experiment(
     for i, (method, regressors) in enumerate(evaluated):
         if i == 0:  # hierarchical SFA: every rotation of every training frame, in time order
             fitted = fit_method(method, train_pan, rotation)
-        elif getattr(method, "rotation_invariant", False) and full_width(rotation, train_pan):
+        elif get_capabilities(method).rotation_invariant and full_width(rotation, train_pan):
             fitted = fit_method(method, train_pan, rotation)  # once per panorama
         else:  # the evaluated windows of every fit_every-th frame (memory, see above)
             views = rotation.views(train_pan[fit_frames], windows)[0]

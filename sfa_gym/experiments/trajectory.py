@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from sfa_gym._checks import check_world_seed
 from sfa_gym.experiments.common import FIGURE_REGRESSOR, SlowFeatureMethod, score_methods
 from sfa_gym.experiments.report import check_out_folder, results_header, write_results
-from sfa_gym.localization.methods import FeatureMethod
+from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols import trajectory
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.recording.cache import RunFolder

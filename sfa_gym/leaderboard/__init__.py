@@ -1,7 +1,7 @@
 """The leaderboard: versioned tracks, one command to score a method on them, citable results.
 
 - :mod:`~sfa_gym.leaderboard.tracks`: track files (``tracks/*.json``), loaded and checked.
-- :mod:`~sfa_gym.leaderboard.plugins`: methods loaded by path (the plug-in protocol).
+- :mod:`sfa_gym.plugins`: methods and controllers loaded by name or path (the plug-in contract).
 - :mod:`~sfa_gym.recording.cache`: the shared render cache.
 - :mod:`~sfa_gym.leaderboard.evaluate`: one (track, method, world seed) task.
 - :mod:`~sfa_gym.leaderboard.outdoor`: the outdoor tracks (the paper's outdoor protocol, the

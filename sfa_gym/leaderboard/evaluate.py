@@ -22,8 +22,8 @@ from typing import Any
 
 from threadpoolctl import threadpool_limits
 
-from sfa_gym.leaderboard.plugins import load_method
 from sfa_gym.leaderboard.tracks import PROTOCOLS, Track, load_track, protocol_module
+from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
 
 __all__ = ["HIGHER_IS_BETTER", "Task", "run_task"]

@@ -148,7 +148,7 @@ def navigation_scores(
     ``world_seed`` over episodes ``episode_seed .. episode_seed + episodes - 1``.
 
     ``controller``: a controller plug-in file and its arguments
-    (:mod:`sfa_gym.navigation.plugins`), or ``(None, {})`` for the track's gradient controller
+    (:mod:`sfa_gym.plugins`), or ``(None, {})`` for the track's gradient controller
     (``params.controller``). Either sees only the rover's own sensors in ``info``."""
     import gymnasium as gym
 
@@ -159,7 +159,8 @@ def navigation_scores(
         slowness_weights,
     )
     from sfa_gym.navigation.evaluate import run_episodes, summarize
-    from sfa_gym.navigation.plugins import Rover, SensorsOnly, load_controller_file
+    from sfa_gym.navigation.sensors import Rover, SensorsOnly
+    from sfa_gym.plugins import load_controller_plugin
     from sfa_gym.protocols.features import fit_method
     from sfa_gym.rotation import Rotation
 
@@ -208,7 +209,7 @@ def navigation_scores(
             settings = GradientSettings(**params["controller"])
             driver = SensorsOnly(GradientController.for_env(env, weights, settings=settings))
         else:
-            driver = load_controller_file(path)(Rover.of(env), weights, args)
+            driver = load_controller_plugin(path)(Rover.of(env), weights, args)
         first = params["episode_seed"]
         seeds = range(first, first + params["episodes"])
         summary = summarize(run_episodes(env, driver, seeds, progress=False))

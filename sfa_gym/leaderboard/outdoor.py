@@ -136,10 +136,11 @@ def outdoor_requests(track: Any, params: Mapping[str, Any], world_seed: int) -> 
 def _fit(method: Any, train_pan: np.ndarray, config: Any, windows: np.ndarray) -> Any:
     """``method`` fitted on the training frames as the outdoor experiment fits it (see the
     module docstring)."""
+    from sfa_gym.capabilities import get_capabilities
     from sfa_gym.protocols.features import fit_method
 
     rotation = config.rotation
-    if hasattr(method, "fit_rotations"):
+    if get_capabilities(method).fit_rotations:
         return fit_method(method, train_pan, rotation)
     frames = np.arange(0, len(train_pan), config.fit_every)
     views = rotation.views(train_pan[frames], windows)[0]
@@ -162,6 +163,7 @@ def outdoor_scores(
         ``visited``: MAE in m and % per axis, as the outdoor experiment reports them),
         ``regressor``, ``n_features``, ``frames`` and the cache keys of the runs.
     """
+    from sfa_gym.capabilities import get_capabilities
     from sfa_gym.experiments.outdoor import condition_scores, test_sets
     from sfa_gym.localization import make_regressor, predict_locations
     from sfa_gym.protocols.features import view_features
@@ -185,7 +187,7 @@ def outdoor_scores(
 
     fitted = _fit(method, train_pan, config, windows)
     f_train = view_features(fitted, train_pan, rotation, windows, progress=False)
-    reg = str(getattr(method, "regressor", "linear"))
+    reg = get_capabilities(method).regressor
     regressor = make_regressor(reg)
     n_views = f_train.shape[1]
     # every window of a training frame is a sample labelled with the frame's position

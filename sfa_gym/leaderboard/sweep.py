@@ -13,9 +13,9 @@ from typing import Any
 
 from sfa_gym.leaderboard.backends import Backend, run_tasks
 from sfa_gym.leaderboard.evaluate import HIGHER_IS_BETTER, Task
-from sfa_gym.leaderboard.plugins import file_sha256, load_factory, method_arguments
 from sfa_gym.leaderboard.results import make_result, method_label, result_path, write_result
 from sfa_gym.leaderboard.tracks import Track
+from sfa_gym.plugins import file_sha256, load_controller_plugin, load_method_plugin
 
 __all__ = ["run_sweep"]
 
@@ -58,8 +58,8 @@ def run_sweep(
     driver = None if controller is None else _describe_controller(tracks, *controller)
     described = []
     for path, args in methods:
-        factory = load_factory(path)
-        method = _describe(factory, args, method_arguments(factory, args))
+        factory = load_method_plugin(path)
+        method = _describe(factory, args, factory.arguments(args))
         if driver is not None:
             method |= {"label": f"{method['label']}+{driver['label']}", "controller": driver}
         described.append(method)
@@ -119,15 +119,13 @@ def _describe_controller(
     tracks: Sequence[Track], path: str | os.PathLike[str], args: Mapping[str, Any]
 ) -> dict[str, Any]:
     """The provenance of a controller plug-in (checked, with its arguments), for the results."""
-    from sfa_gym.navigation.plugins import load_controller_file
-
     others = [t.name for t in tracks if t.kind != "navigation"]
     if others:
         raise ValueError(
             f"a controller drives the rover on navigation tracks only; {others} are not "
             "navigation tracks (choose the nav_* tracks)"
         )
-    factory = load_controller_file(path)
+    factory = load_controller_plugin(path)
     return _describe(factory, args, factory.arguments(args))
 
 

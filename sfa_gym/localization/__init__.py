@@ -1,8 +1,8 @@
-"""Localization: regression from features to metres, metrics, plots and feature methods."""
+"""Localization: regression from features to metres, metrics and plots (feature methods are
+plug-ins: :mod:`sfa_gym.plugins`)."""
 
 from __future__ import annotations
 
-from sfa_gym.localization.methods import FeatureMethod, MethodFactory, load_method_file
 from sfa_gym.localization.metrics import (
     MAE,
     SplitMAE,
@@ -27,18 +27,15 @@ from sfa_gym.localization.regression import (
 
 __all__ = [
     "MAE",
-    "FeatureMethod",
     "KNNRegressor",
     "LinearRegressor",
     "MapDecoder",
-    "MethodFactory",
     "QuadraticRidge",
     "SplitMAE",
     "eta",
     "eta_phi",
     "eta_r",
     "fit_predict",
-    "load_method_file",
     "mae",
     "make_regressor",
     "predict_locations",

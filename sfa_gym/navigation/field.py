@@ -88,6 +88,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sfa_gym._files import check_format_header, read_npy_header, strict_json, write_atomic
+from sfa_gym.capabilities import get_capabilities
 from sfa_gym.features import rotation_averaged_features
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "INTERPOLATIONS", "FeatureField", "world_hash"]
@@ -348,9 +349,12 @@ class FeatureField:
         env = getattr(env, "unwrapped", env)
         if not hasattr(env, "arena_bounds") or not hasattr(env, "reset"):
             raise TypeError(f"env must be an OmniRoverEnv, got {type(env).__name__}")
-        if not (hasattr(model, "transform") or hasattr(model, "transform_rotations")):
+        if not (
+            callable(getattr(model, "transform", None))
+            or get_capabilities(model).transform_rotations
+        ):
             raise TypeError(
-                f"model must be a fitted feature model with transform(views) (or "
+                f"model must be a fitted feature model with transform(views) (or the capability "
                 f"transform_rotations(panoramas, step)), got {type(model).__name__}"
             )
         bounds = tuple(float(b) for b in env.arena_bounds)

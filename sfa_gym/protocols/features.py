@@ -1,7 +1,7 @@
 """Features of rotated views, the one way every protocol fits a feature method and reads its
 features: all rotated views of the training panoramas in visiting order, a few thousand views at a
-time, with the shortcuts a method declares (``fit_rotations``/``transform_rotations``, column
-statistics that are ``rotation_invariant``)."""
+time, with the shortcuts a method declares in its :class:`~sfa_gym.capabilities.Capabilities`
+(``fit_rotations``/``transform_rotations``, column statistics that are ``rotation_invariant``)."""
 
 from __future__ import annotations
 
@@ -12,8 +12,9 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
+from sfa_gym.capabilities import get_capabilities
 from sfa_gym.localization import eta_phi, eta_r
-from sfa_gym.localization.methods import FeatureMethod
+from sfa_gym.plugins import FeatureMethod
 from sfa_gym.rotation import Rotation
 
 __all__ = [
@@ -41,17 +42,18 @@ def view_features(
     """Features ``(L, K', k)`` of the rotated views ``indices`` (all ``K`` by default) of each
     panorama ``(L, H, W, 3)``, a few thousand views at a time.
 
-    A method with ``transform_rotations(panoramas, step)`` computes all views itself
+    A method with the capability ``transform_rotations`` computes all views itself
     (hierarchical SFA exploits that a rotation permutes its layer-1 patches, so all 120 views
     of a 600 px panorama cost less than 24 views transformed one by one) and the ``indices``
-    are picked from them. A method that declares ``rotation_invariant = True`` (a column
+    are picked from them. A method with the capability ``rotation_invariant`` (a column
     statistic: the features of a circular shift of the whole panorama are its own) transforms
     each panorama once when the views are full width. Otherwise the method transforms every
     view asked for.
     """
     width = panoramas.shape[2]
     n_views = rotation.n_views(width) if indices is None else len(indices)
-    if getattr(method, "rotation_invariant", False) and full_width(rotation, panoramas):
+    capabilities = get_capabilities(method)
+    if capabilities.rotation_invariant and full_width(rotation, panoramas):
         out = [
             np.asarray(method.transform(np.asarray(panoramas[i : i + VIEWS_PER_BLOCK])))
             for i in tqdm(
@@ -60,7 +62,7 @@ def view_features(
         ]
         features = np.concatenate(out).astype(np.float64)
         return np.repeat(features[:, None], n_views, axis=1)
-    shortcut = hasattr(method, "transform_rotations")
+    shortcut = capabilities.transform_rotations
     per_block = max(1, VIEWS_PER_BLOCK // (rotation.n_views(width) if shortcut else n_views))
     out = []
     for i in tqdm(range(0, len(panoramas), per_block), desc=desc, disable=not progress):
@@ -80,13 +82,15 @@ def fit_method(
     method: FeatureMethod, panoramas: NDArray[np.uint8], rotation: Rotation
 ) -> FeatureMethod:
     """Fit ``method`` on every rotated view of ``panoramas (L, H, W, 3)``: all views of the first
-    location, then of the next, ... (``fit_rotations`` if the method has it)."""
-    if hasattr(method, "fit_rotations"):
-        own = getattr(method, "rotation", rotation)
+    location, then of the next, ... (``fit_rotations`` if the method has that capability: it
+    fits with its own ``rotation``, which must be ``rotation``)."""
+    capabilities = get_capabilities(method)
+    if capabilities.fit_rotations:
+        own = method.rotation  # type: ignore[attr-defined]
         if own != rotation:
             raise ValueError(f"{method.name} was set up for {own}, asked to fit on {rotation}")
         return method.fit_rotations(panoramas)
-    if getattr(method, "rotation_invariant", False) and full_width(rotation, panoramas):
+    if capabilities.rotation_invariant and full_width(rotation, panoramas):
         return method.fit(np.asarray(panoramas))  # every full-width view is alike
     views = rotation.views(panoramas)[0]
     return method.fit(views.reshape(-1, *views.shape[2:]))
@@ -129,7 +133,7 @@ def method_regressors(method: FeatureMethod, regressors: Sequence[str] | None) -
     """The regressions a method is scored with: ``regressors`` without repeats, or, when None,
     the method's own ``regressor`` (default linear)."""
     if regressors is None:
-        return [str(getattr(method, "regressor", "linear"))]
+        return [get_capabilities(method).regressor]
     names = list(dict.fromkeys(regressors))
     if not names:
         raise ValueError(f"{getattr(method, 'name', method)!r}: no regression to score it with")

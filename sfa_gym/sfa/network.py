@@ -54,6 +54,7 @@ from sklearn.utils import Tags
 from sklearn.utils.validation import check_is_fitted
 
 from sfa_gym._types import check_views
+from sfa_gym.capabilities import Capabilities
 from sfa_gym.rotation import check_window, n_rotations, rotation_columns
 from sfa_gym.sfa._layers import LayerParams
 from sfa_gym.sfa._parallel import n_workers, ordered_map, single_threaded_blas
@@ -132,6 +133,10 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
             (None for a model built from weights whose training is unknown).
         n_training_views_: number of training views (rotated views count individually).
     """
+
+    # transform_rotations reads every rotation of a panorama at once; its fit_rotations takes
+    # the rotation as arguments, unlike a feature method's (see sfa_gym.capabilities)
+    capabilities = Capabilities(transform_rotations=True)
 
     def __init__(
         self,

@@ -1,0 +1,487 @@
+"""Plug-ins: feature methods and navigation controllers loaded from Python files.
+
+A plug-in is one readable Python file, loaded by path (``my_method.py``) or, for the built-in
+ones, by name (``band_means``, ``sfa``; controllers: ``run_and_tumble``). The built-in files are
+the repository's ``baselines/`` (controllers in ``baselines/controllers/``); installed from a
+wheel, the package carries the same files as ``sfa_gym/plugins_data/``. Only the named file is
+executed: not its folder as a package, not its neighbours, and nothing is added to ``sys.path``.
+
+**Trust.** A plug-in is trusted code: it runs in the evaluator's process (or Ray worker) with
+that process's rights, and nothing sandboxes it. Load only files you would run yourself.
+
+Every plug-in file defines at module level
+
+- ``Args``: a dataclass (frozen, by convention) of its arguments, each with a default, a type and
+  a docstring under the field. The loader builds ``Args`` from JSON-type keyword arguments (the
+  leaderboard's ``--method-args n_bands=4``, a result file's ``args``), refusing unknown names and
+  values of the wrong type with a :class:`ValueError` naming the file, the field and the value
+  (ints are accepted for float fields, lists for tuples); ``--help`` on the command line lists
+  the fields with their docstrings. Every field filled in is what a result records.
+
+A **feature method** file also defines ``make_method(**args)`` (or ``METHOD``, a class called
+with the arguments), which returns an unfitted method with
+
+- ``name: str``: the leaderboard label;
+- ``fit(views (N, H, W, 3) uint8, sequence_ids=None) -> self``: unsupervised fit; the row order
+  of ``views`` is the time order of the training run (what SFA learns from); ``sequence_ids``
+  ``(N,)`` optionally marks separate sequences;
+- ``transform(views (N, H, W, 3) uint8) -> (N, k) float``;
+- after ``fit``, ``input_shape_`` ``(H, W, 3)`` (what
+  :class:`sfa_gym.wrappers.SlowFeatureObservation` needs of a feature model).
+
+Methods follow scikit-learn's estimator conventions: the parameters are the ``__init__``
+arguments, stored unchanged (so ``get_params``, ``set_params`` and ``sklearn.base.clone`` work:
+subclass ``sklearn.base.BaseEstimator`` and ``TransformerMixin``), checked in ``fit``, and the
+fitted state ends in ``_``. The built-in methods' ``__init__`` takes the fields of their ``Args``.
+
+Optional capabilities are declared in one way: a class attribute ``capabilities`` (a property
+when a parameter decides it), a :class:`~sfa_gym.capabilities.Capabilities` with
+
+- ``fit_rotations``: has ``fit_rotations(panoramas)``, fitting on every rotation of each panorama
+  with its own ``rotation``;
+- ``transform_rotations``: has ``transform_rotations(panoramas, step) -> (L, W // step, k)``;
+- ``rotation_invariant``: column statistics; each full-width panorama is transformed once;
+- ``regressor``: the regression the features are paired with (default ``"linear"``);
+- ``extra_regressors``: regressions ``sfa-gym localize`` reports besides those two.
+
+The library reads them with :func:`~sfa_gym.capabilities.get_capabilities` and nothing else; a
+method that declares none gets the defaults (no shortcut, linear regression).
+
+A **controller** file also defines ``make_controller(rover, weights, **args)``: a fresh
+controller for a :class:`~sfa_gym.navigation.sensors.Rover` and the cost weights of the features
+``(k,)`` (see :func:`~sfa_gym.navigation.feature_gradient.slowness_weights`), with
+``name: str``, ``reset(obs, info)`` at the start of an episode and ``act(obs, info) -> (3,)
+float32`` (forward speed m/s, yaw rate rad/s, stop if > 0) every step. ``obs`` holds
+``"features"`` and ``"goal_features"``; ``info`` only the rover's own sensors
+(:class:`~sfa_gym.navigation.sensors.SensorsOnly`).
+
+A file that does not follow this contract raises :class:`PluginError`, naming the file and what
+is missing.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib.util
+import os
+import sys
+import tomllib
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+from typing import Any, ClassVar, Literal, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sfa_gym._json_types import dataclass_from_json
+from sfa_gym._types import check_views
+from sfa_gym.capabilities import Capabilities, get_capabilities
+
+__all__ = [
+    "PROJECT_NAME",
+    "Argument",
+    "Capabilities",
+    "ControllerPlugin",
+    "FeatureMethod",
+    "MethodPlugin",
+    "Plugin",
+    "PluginError",
+    "checkout_root",
+    "check_views",
+    "default_plugin_folder",
+    "file_sha256",
+    "get_capabilities",
+    "iter_chunks",
+    "list_plugin_files",
+    "load_controller_plugin",
+    "load_method",
+    "load_method_plugin",
+    "load_plugin",
+    "load_plugins",
+    "resolve_plugin",
+]
+
+Kind = Literal["method", "controller"]
+
+PROJECT_NAME = "sfa-gym"
+"""The ``[project] name`` in the repository's ``pyproject.toml``."""
+
+SHIPPED_FOLDER = "plugins_data"
+"""The folder inside the installed package that holds the built-in plug-ins."""
+
+KIND_NAMES: Mapping[str, str] = {"method": "feature-method", "controller": "controller"}
+"""How errors name a plug-in file of each kind (``no feature-method file at ...``)."""
+
+
+@runtime_checkable
+class FeatureMethod(Protocol):
+    """Panoramic views in, feature vectors out (see the module docstring)."""
+
+    name: str
+
+    def fit(
+        self, views: NDArray[np.uint8], sequence_ids: NDArray[np.integer] | None = None
+    ) -> FeatureMethod: ...
+
+    def transform(self, views: NDArray[np.uint8]) -> NDArray[np.floating]: ...
+
+
+class PluginError(TypeError):
+    """A plug-in file that does not follow the contract (the message names the file and what is
+    wrong)."""
+
+
+def iter_chunks(n: int, chunk: int) -> Iterator[slice]:
+    """Slices ``[0, chunk), [chunk, 2 chunk), ...`` covering ``range(n)``."""
+    for start in range(0, n, chunk):
+        yield slice(start, min(start + chunk, n))
+
+
+def file_sha256(path: str | os.PathLike[str]) -> str:
+    """SHA-256 (hex) of a file: identifies the exact plug-in a result was made with."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+# ---------------------------------------------------------------------------------------------
+# Where the built-in plug-ins are
+
+
+def _package_dir() -> Path:
+    import sfa_gym
+
+    return Path(sfa_gym.__file__).resolve().parent
+
+
+def checkout_root(package_dir: Path | None = None) -> Path | None:
+    """The repository folder if ``package_dir`` (default: the imported ``sfa_gym``) lies in a
+    checkout of this project, else None."""
+    root = (package_dir or _package_dir()).parent
+    try:
+        with open(root / "pyproject.toml", "rb") as file:
+            name = tomllib.load(file).get("project", {}).get("name")
+    except (OSError, tomllib.TOMLDecodeError):
+        return None
+    return root if name == PROJECT_NAME else None
+
+
+def default_plugin_folder(package_dir: Path | None = None) -> tuple[Path | None, str]:
+    """The folder of the built-in plug-ins, and a sentence saying where it comes from.
+
+    In a checkout of the repository (the package's parent folder holds this project's
+    ``pyproject.toml`` and a ``baselines/`` folder) the checkout's ``baselines/``; otherwise the
+    plug-ins shipped inside the package; otherwise none. A ``baselines`` folder that another
+    distribution put next to the package in ``site-packages`` is never looked at.
+    """
+    package_dir = package_dir or _package_dir()
+    root = checkout_root(package_dir)
+    if root is not None and (root / "baselines").is_dir():
+        return root / "baselines", f"baselines of the checkout {root}"
+    shipped = package_dir / SHIPPED_FOLDER
+    if shipped.is_dir():
+        return (
+            shipped,
+            f"the baselines shipped with sfa-gym ({shipped}); name another folder with --baselines",
+        )
+    return (
+        None,
+        "no baselines: not run from a checkout and none shipped; name a folder with --baselines",
+    )
+
+
+def list_plugin_files(directory: str | Path) -> list[Path]:
+    """The plug-in files of a directory: ``*.py`` not starting with ``_``, sorted by name."""
+    directory = Path(directory)
+    if not directory.is_dir():
+        raise FileNotFoundError(f"no directory {directory}")
+    return sorted(p for p in directory.glob("*.py") if not p.name.startswith("_"))
+
+
+def resolve_plugin(source: str | os.PathLike[str], kind: Kind = "method") -> Path:
+    """The plug-in file of ``source``: a built-in name (``"band_means"``, a Python identifier)
+    or a path to a ``.py`` file.
+
+    Raises:
+        FileNotFoundError: no such file, or no built-in plug-in of that name (the message lists
+            the built-in ones).
+        ValueError: a path that is not a ``.py`` file.
+    """
+    what = KIND_NAMES[kind]
+    if isinstance(source, str) and source.isidentifier():
+        folder, _ = default_plugin_folder()
+        if folder is not None and kind == "controller":
+            folder = folder / "controllers"
+        path = None if folder is None else folder / f"{source}.py"
+        if path is None or not path.is_file():
+            known = [] if folder is None or not folder.is_dir() else list_plugin_files(folder)
+            raise FileNotFoundError(
+                f"no built-in {what} {source!r}; the built-in ones are {[p.stem for p in known]} "
+                f"(in {folder}); or give the path of a .py file"
+            )
+        return path.resolve()
+    path = Path(source).resolve()
+    if not path.is_file():
+        raise FileNotFoundError(f"no {what} file at {path}")
+    if path.suffix != ".py":
+        raise ValueError(f"a {what} file must be a .py file, got {path}")
+    return path
+
+
+def import_plugin_file(path: Path) -> ModuleType:
+    """Execute the file at ``path`` as a module of its own (not its folder as a package, no
+    ``sys.path`` change); a failure to import is a :class:`PluginError` naming the file."""
+    # A name unique per file keeps two plug-ins with the same stem (or a plug-in named like an
+    # installed module) from replacing each other in sys.modules.
+    digest = hashlib.sha1(str(path).encode()).hexdigest()[:10]
+    module_name = f"sfa_gym_plugin_{path.stem}_{digest}"
+    spec = importlib.util.spec_from_file_location(module_name, path)
+    if spec is None or spec.loader is None:
+        raise PluginError(f"cannot load {path} as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    # Registered before executing: dataclasses look their module up in sys.modules.
+    sys.modules[module_name] = module
+    try:
+        spec.loader.exec_module(module)
+    except Exception as error:
+        del sys.modules[module_name]
+        raise PluginError(
+            f"the plug-in file {path} failed to import: {type(error).__name__}: {error}"
+        ) from error
+    except BaseException:
+        del sys.modules[module_name]
+        raise
+    return module
+
+
+@dataclass(frozen=True)
+class Argument:
+    """One field of a plug-in's ``Args``: its type (as written), default and docstring."""
+
+    name: str
+    type: str
+    default: Any
+    doc: str
+
+
+@dataclass(frozen=True)
+class Plugin:
+    """A loaded plug-in file (see the module docstring); call it to make a fresh method or
+    controller.
+
+    Attributes:
+        name: the file's stem (e.g. ``"band_means"``): the label results use.
+        path: the plug-in file.
+        make: the file's ``make_method`` (or ``METHOD``) or ``make_controller``.
+        args_type: the file's ``Args`` dataclass.
+    """
+
+    kind: ClassVar[Kind]
+    factories: ClassVar[tuple[str, ...]]
+    """the module-level names a file of this kind may define its factory under"""
+    missing: ClassVar[str]
+    """how an error says that the factory is missing"""
+    name: str
+    path: Path
+    make: Callable[..., Any]
+    args_type: type
+
+    def parse(self, args: Mapping[str, Any] | None = None) -> Any:
+        """``Args`` built from JSON-type keyword arguments ``args`` (the defaults for the rest).
+
+        Raises:
+            ValueError: a key that is not a field of ``Args``, a value of the wrong type, or a
+                value ``Args`` refuses; the message names the file, the field and the value.
+        """
+        return dataclass_from_json(self.args_type, args or {}, str(self.path))
+
+    def arguments(self, args: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """Every field of ``Args`` with ``args`` applied, as a dict (the defaults filled in: what
+        a result records). Raises as :meth:`parse`."""
+        filled = self.parse(args)
+        return {f.name: getattr(filled, f.name) for f in dataclasses.fields(self.args_type)}
+
+    def fields(self) -> list[Argument]:
+        """The fields of ``Args`` with their docstrings, read with the parser that gives the
+        command line its help text."""
+        import docstring_parser  # tyro's docstring reader
+
+        docs = {
+            param.arg_name: " ".join((param.description or "").split())
+            for param in docstring_parser.parse_from_object(self.args_type).params
+        }
+        out = []
+        for field in dataclasses.fields(self.args_type):
+            if field.default is not dataclasses.MISSING:
+                default = field.default
+            elif field.default_factory is not dataclasses.MISSING:
+                default = field.default_factory()
+            else:
+                default = dataclasses.MISSING
+            out.append(Argument(field.name, str(field.type), default, docs.get(field.name, "")))
+        return out
+
+    def _check_made(self, made: Any, methods: tuple[str, ...], usage: str) -> None:
+        wrong = [a for a in methods if not callable(getattr(made, a, None))]
+        if not isinstance(getattr(made, "name", None), str):
+            wrong.insert(0, "name")
+        if wrong:
+            kind = KIND_NAMES[self.kind].replace("-", " ")
+            raise PluginError(
+                f"{self.path} made {made!r}, which is not a {kind} (the plug-in contract: "
+                f"sfa_gym.plugins): it needs name: str and {', '.join(methods)} (e.g. {usage}) "
+                f"(missing or wrong: {wrong})"
+            )
+
+
+@dataclass(frozen=True)
+class MethodPlugin(Plugin):
+    """A feature-method plug-in: ``plugin(**args)`` is a fresh, unfitted method."""
+
+    kind: ClassVar[Kind] = "method"
+    factories: ClassVar[tuple[str, ...]] = ("make_method", "METHOD")
+    missing: ClassVar[str] = "neither make_method(**kwargs) nor a METHOD class"
+
+    def __call__(self, **args: Any) -> FeatureMethod:
+        """A fresh method with ``args`` (JSON types; see :meth:`parse`).
+
+        Raises:
+            ValueError: see :meth:`parse`. PluginError: what the file made lacks ``name``,
+                ``fit`` or ``transform``.
+        """
+        method = self.make(**self.arguments(args))
+        self._check_made(method, ("fit", "transform"), "fit(views)")
+        return method
+
+    def from_command_line(self, argv: Sequence[str]) -> FeatureMethod:
+        """A fresh method with ``Args`` read from options (``--n-bands 4``; ``--help`` lists the
+        fields with their docstrings and exits), as ``sfa-gym`` reads its settings."""
+        import tyro
+
+        args = tyro.cli(self.args_type, args=list(argv), prog=self.name)
+        return self(**{f.name: getattr(args, f.name) for f in dataclasses.fields(args)})
+
+
+@dataclass(frozen=True)
+class ControllerPlugin(Plugin):
+    """A controller plug-in: ``plugin(rover, weights, args)`` is a fresh controller that sees only
+    the rover's sensors."""
+
+    kind: ClassVar[Kind] = "controller"
+    factories: ClassVar[tuple[str, ...]] = ("make_controller",)
+    missing: ClassVar[str] = "no make_controller(rover, weights, **kwargs)"
+
+    def __call__(
+        self, rover: Any, weights: ArrayLike, args: Mapping[str, Any] | None = None
+    ) -> Any:
+        """A fresh controller for ``rover`` (a :class:`~sfa_gym.navigation.sensors.Rover`) and
+        cost ``weights`` ``(k,)``, wrapped in :class:`~sfa_gym.navigation.sensors.SensorsOnly`.
+
+        Raises:
+            ValueError: see :meth:`parse`. PluginError: what ``make_controller`` returned lacks
+                ``name``, ``reset`` or ``act``.
+        """
+        from sfa_gym.navigation.sensors import SensorsOnly
+
+        weights = np.asarray(weights, dtype=np.float64)
+        controller = self.make(rover, weights, **self.arguments(args))
+        self._check_made(controller, ("reset", "act"), "act(obs, info)")
+        return SensorsOnly(controller)
+
+
+def _args_type(path: Path, module: ModuleType, kind: Kind) -> type:
+    args_type = getattr(module, "Args", None)
+    if args_type is None:
+        raise PluginError(
+            f"{path} defines no Args dataclass: a {KIND_NAMES[kind]} needs "
+            "`@dataclass(frozen=True) class Args` listing its arguments (with defaults), so "
+            "that results can record them"
+        )
+    if not (isinstance(args_type, type) and dataclasses.is_dataclass(args_type)):
+        raise PluginError(f"{path}: Args must be a dataclass of the arguments, got {args_type!r}")
+    return args_type
+
+
+PLUGIN_TYPES: Mapping[str, type[Plugin]] = {"method": MethodPlugin, "controller": ControllerPlugin}
+
+
+def load_plugin(source: str | os.PathLike[str], kind: Kind = "method") -> Plugin:
+    """The plug-in ``source`` of ``kind``: a built-in name (``"band_means"``, ``"run_and_tumble"``)
+    or a file.
+
+    Raises:
+        FileNotFoundError, ValueError: see :func:`resolve_plugin`.
+        PluginError: the file fails to import or does not follow the contract (no factory of its
+            kind, no ``Args`` dataclass).
+    """
+    plugin_type = PLUGIN_TYPES[kind]
+    path = resolve_plugin(source, kind)
+    module = import_plugin_file(path)
+    factories = [getattr(module, name, None) for name in plugin_type.factories]
+    make = next((f for f in factories if callable(f)), None)
+    if make is None:
+        raise PluginError(f"{path} defines {plugin_type.missing} at module level")
+    return plugin_type(path.stem, path, make, _args_type(path, module, kind))
+
+
+def load_method_plugin(source: str | os.PathLike[str]) -> MethodPlugin:
+    """The feature-method plug-in ``source`` (see :func:`load_plugin`)."""
+    return load_plugin(source, "method")  # type: ignore[return-value]
+
+
+def load_controller_plugin(source: str | os.PathLike[str]) -> ControllerPlugin:
+    """The controller plug-in ``source`` (see :func:`load_plugin`)."""
+    return load_plugin(source, "controller")  # type: ignore[return-value]
+
+
+def load_method(
+    source: str | os.PathLike[str], args: Mapping[str, Any] | None = None
+) -> FeatureMethod:
+    """A fresh, unfitted method from the plug-in ``source`` with ``args`` (JSON types).
+
+    Raises:
+        FileNotFoundError, ValueError, PluginError: see :func:`load_method_plugin` and
+            :meth:`Plugin.parse`.
+    """
+    return load_method_plugin(source)(**dict(args or {}))
+
+
+def load_plugins(
+    folder: Path | None, *, use_default: bool = True, package_dir: Path | None = None
+) -> list[tuple[FeatureMethod, tuple[str, ...]]]:
+    """The feature methods of the plug-in files in ``folder`` (default arguments), each with the
+    regressions ``sfa-gym localize`` evaluates it with: the linear one, the one it is paired
+    with and its extra ones (its :class:`~sfa_gym.capabilities.Capabilities`).
+
+    Hierarchical SFA (the built-in ``sfa.py``) is left out: the protocols train it themselves,
+    with their own ``--sfa.*`` settings.
+
+    Args:
+        folder: the folder the user named, or None.
+        use_default: with ``folder=None``, load the :func:`default_plugin_folder` (saying on
+            stderr which one when it is not the checkout's); without it, load nothing.
+        package_dir: where ``sfa_gym`` is installed (for tests).
+
+    Raises:
+        ValueError: ``folder`` is not a folder.
+    """
+    from sfa_gym.protocols.slow_features import SlowFeatureMethod
+
+    if folder is not None:
+        if not Path(folder).is_dir():
+            raise ValueError(f"--baselines {str(folder)!r} is not a folder")
+    elif use_default:
+        folder, origin = default_plugin_folder(package_dir)
+        if folder is None or checkout_root(package_dir) is None:
+            print(f"sfa-gym: {origin}", file=sys.stderr)
+    methods: list[tuple[FeatureMethod, tuple[str, ...]]] = []
+    if folder is None:
+        return methods
+    for path in list_plugin_files(folder):
+        method = load_method_plugin(path)()
+        if isinstance(method, SlowFeatureMethod):
+            continue
+        found = get_capabilities(method)
+        methods.append((method, ("linear", found.regressor, *found.extra_regressors)))
+    return methods
