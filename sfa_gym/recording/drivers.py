@@ -380,7 +380,8 @@ class LawnMowerDriver(WaypointDriver):
         exclude: rectangle ``(xmin, xmax, ymin, ymax)`` (m) the rover never enters (widened by
             ``clearance``): rows are cut there and the path goes around it.
         clearance: extra distance kept from ``exclude`` (m).
-        speed, turn_rate, tolerance, turn_in_place: see :class:`WaypointDriver`.
+        speed: this and ``turn_rate``, ``tolerance``, ``turn_in_place``: see
+            :class:`WaypointDriver`.
     """
 
     def __init__(
@@ -494,7 +495,8 @@ class LoopDriver(WaypointDriver):
         insets: distance of each loop from the bounds (m), driven in this order.
         clockwise: direction of the loops.
         laps: number of times the whole set of loops is driven.
-        speed, turn_rate, tolerance, turn_in_place: see :class:`WaypointDriver`.
+        speed: this and ``turn_rate``, ``tolerance``, ``turn_in_place``: see
+            :class:`WaypointDriver`.
     """
 
     def __init__(
