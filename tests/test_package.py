@@ -26,6 +26,8 @@ def test_wheel_ships_world_data_and_no_generic_top_level_modules(tmp_path):
     top_level = {name.split("/")[0] for name in names}
     assert not top_level & {"envs", "baselines", "eval", "tests"}, top_level
     assert "sfa_gym/envs_data/paper_sim.json" in names
+    # the reference board that `sfa-gym leaderboard table` shows beside a user's results
+    assert "sfa_gym/published_data/leaderboard/quick.json" in names
     assert "sfa_gym/py.typed" in names
 
 
