@@ -1,6 +1,11 @@
-"""MkDocs hook: the leaderboard's results page, generated at build time from the committed
-result files (``published/leaderboard/``), so that no page of docs/ holds a copied number;
-and the nav entry ``notes/``, which stands for every page of ``docs/notes/``."""
+"""MkDocs hook (``hooks:`` in mkdocs.yml).
+
+- The leaderboard's results page (``leaderboard/results.md``) is generated at build time from
+  the committed result files (``published/leaderboard/``) by
+  :func:`sfa_gym.leaderboard.html.results_page`, so that no page of docs/ holds a copied number.
+- A nav entry whose page is a folder (``Notes: notes/``) stands for every page of that folder,
+  its ``index.md`` first, so that a new note needs no edit of mkdocs.yml.
+"""
 
 from __future__ import annotations
 
@@ -11,15 +16,18 @@ from mkdocs.structure.files import File
 RESULTS_PAGE = "leaderboard/results.md"
 
 
+def _folder_pages(docs_dir: Path, folder: str) -> list[str]:
+    pages = sorted(p.relative_to(docs_dir).as_posix() for p in (docs_dir / folder).glob("*.md"))
+    return sorted(pages, key=lambda page: not page.endswith("/index.md"))
+
+
 def _expand_folders(nav: list, docs_dir: Path) -> list:
-    """Nav entries whose page is a folder (``notes/``): the folder's pages, sorted by name."""
     out = []
     for entry in nav:
         if isinstance(entry, dict):
             ((title, value),) = entry.items()
             if isinstance(value, str) and value.endswith("/"):
-                pages = sorted(p.relative_to(docs_dir).as_posix() for p in (docs_dir / value).glob("*.md"))
-                value = pages
+                value = _folder_pages(docs_dir, value)
             elif isinstance(value, list):
                 value = _expand_folders(value, docs_dir)
             entry = {title: value}
