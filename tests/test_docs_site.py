@@ -47,6 +47,12 @@ def test_the_site_builds_strictly_with_the_api_reference_and_the_results_page(si
     api = (site / "api" / "leaderboard" / "index.html").read_text()
     # the reference is rendered from the docstrings, not only the page's title
     assert 'id="sfa_gym.leaderboard.results.load_results"' in api
+    # the docstrings' Sphinx roles are shown as code, not as written
+    assert "<code>load_results</code>" in api and ":func:<code>" not in api
+    # every note is in the nav, which names the folder only
+    for note in (ROOT / "docs" / "notes").glob("*.md"):
+        folder = "" if note.stem == "index" else f"{note.stem}/"
+        assert f'href="notes/{folder}"' in (site / "index.html").read_text()
     page = (site / "leaderboard" / "results" / "index.html").read_text()
     assert "published/leaderboard/" in page and "<svg" in page
     assert not (site / "hooks").exists()  # the hook is code of the build, not a page
