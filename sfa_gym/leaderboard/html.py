@@ -25,7 +25,7 @@ from sfa_gym.leaderboard.results import (
     reference_folder,
 )
 
-__all__ = ["board_html", "chart_svg", "results_page"]
+__all__ = ["board_html", "chart_svg", "results_page", "sorting"]
 
 # Sorts the rows of every table marked data-sortable by the column whose header button is
 # pressed: by the cells' data-value, as numbers where both are numbers; empty cells last.
@@ -126,23 +126,22 @@ def chart_svg(board: Board) -> str:
 
 
 def board_html(board: Board) -> str:
-    """The table (sortable: press a column's header) and the chart of ``board``, an HTML
-    fragment without blank lines (so that markdown passes it through whole)."""
+    """The table and the chart of ``board``: an HTML fragment without blank lines (so that
+    markdown passes it through whole). The table sorts by a column when the page holds
+    :func:`sorting` after it."""
     return "\n".join(
-        [
-            '<div class="sfa-board">',
-            _STYLE,
-            _table(board),
-            _SORT_SCRIPT,
-            '<div class="sfa-chart">',
-            chart_svg(board),
-            "</div>",
-            "</div>",
-        ]
+        ['<div class="sfa-board">', _table(board), '<div class="sfa-chart">']
+        + [chart_svg(board), "</div>", "</div>"]
     )
 
 
-def _shown_path(path: str) -> str:
+def sorting() -> str:
+    """The style and the script that make the tables of :func:`board_html` sortable; once a
+    page (twice, a press would sort twice), after the tables."""
+    return _STYLE + "\n" + _SORT_SCRIPT
+
+
+def _shown_path(path: str | os.PathLike[str]) -> str:
     """``path`` relative to the checkout (``published/leaderboard/quick.json``) where it can
     be, so that the page does not name the machine that built it."""
     from sfa_gym.data import checkout_root
@@ -157,8 +156,9 @@ def _shown_path(path: str) -> str:
 def results_page(folder: str | os.PathLike[str] | None = None) -> str:
     """The markdown of the docs' leaderboard results page: the results under ``folder``
     (default: the committed reference results, :func:`~sfa_gym.leaderboard.results.
-    reference_folder`) as a sortable table and the chart, then the parts of the outdoor
-    tracks' scores and each track's version, world seeds and commit.
+    reference_folder`): for the full-size board and the quick board (the boards of the tracks'
+    full and quick sizes, each where there are results), a sortable table and the chart, then
+    the parts of the outdoor tracks' scores and each track's version, world seeds and commit.
 
     Raises:
         ValueError: no results under ``folder``.
@@ -167,29 +167,30 @@ def results_page(folder: str | os.PathLike[str] | None = None) -> str:
     results = load_results(folder, REFERENCE)
     if not results:
         raise ValueError(f"no leaderboard results under {folder}")
-    board = arrange(results)
-    files = sorted({_shown_path(r["_file"]) for r in results})
-    return "\n".join(
-        [
-            # the wide table wants the room of the page's table of contents (Material theme)
-            "---",
-            "hide:",
-            "  - toc",
-            "---",
-            "",
-            "# Leaderboard results",
-            "",
-            "The reference results, read from "
-            + ", ".join(f"`{f}`" for f in files)
-            + " when this site was built. Each cell is the mean score over the track's "
-            "scoring world seeds, with the Student-t 95 % interval across them below it "
-            "(none with one seed); hover a cell for each seed's score. Localization: MAE in % "
-            "of the coordinate range, mean of x and y (lower is better); navigation: success "
-            "rate (higher is better). Press a column's header to sort by it.",
-            "",
-            board_html(board),
-            "",
-            "## Parts of the scores and the tracks",
-            *detail_tables(board),
-        ]
-    )
+    files = sorted({Path(r["_file"]).relative_to(folder).as_posix() for r in results})
+    named = ", ".join(f"`{f}`" for f in files) if len(files) <= 4 else f"{len(files)} files"
+    lines = [
+        # the wide table wants the room of the page's table of contents (Material theme)
+        "---",
+        "hide:",
+        "  - toc",
+        "---",
+        "",
+        "# Leaderboard results",
+        "",
+        f"The reference results, read from `{_shown_path(folder)}/` ({named}) when this site "
+        "was built. Each cell is the mean score over the track's "
+        "scoring world seeds, with the Student-t 95 % interval across them below it "
+        "(none with one seed); hover a cell for each seed's score. Localization: MAE in % "
+        "of the coordinate range, mean of x and y (lower is better); navigation: success "
+        "rate (higher is better). Press a column's header to sort by it.",
+    ]
+    for quick, title in ((False, "The board"), (True, "The quick board")):
+        size = [r for r in results if r["track"]["quick"] == quick]
+        if not size:
+            continue
+        board = arrange(size)
+        what = "fewer world seeds, smaller grids" if quick else "the tracks' full size"
+        lines += ["", f"## {title}", "", f"{what.capitalize()}.", "", board_html(board), ""]
+        lines += [f"### {title}: the parts of the scores and the tracks", *detail_tables(board)]
+    return "\n".join(lines + ["", sorting(), ""])
