@@ -4,22 +4,27 @@
 #
 #   bash scripts/setup.sh          the library and its command line (sfa-gym)
 #   bash scripts/setup.sh test     also the test dependencies (pytest, hypothesis,
-#                                  stable-baselines3, MDP, Ray)
+#                                  stable-baselines3, MDP, Ray, the docs site's MkDocs and
+#                                  Selenium) and Debian's chromium and chromium-driver, in
+#                                  which the tests open the docs' leaderboard page
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 extras="${1:-}"
 gl_packages="libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6"
+system_packages="$gl_packages"
+# the browser the docs test drives (a Debian package: browser downloads are not needed)
+case ",$extras," in *,test,*) system_packages="$system_packages chromium chromium-driver" ;; esac
 
 missing=""
 if command -v dpkg-query >/dev/null; then
-    for p in $gl_packages; do
+    for p in $system_packages; do
         dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
     done
 fi
 if [ -n "$missing" ]; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
-        echo "installing headless OpenGL libraries:$missing"
+        echo "installing system packages:$missing"
         export DEBIAN_FRONTEND=noninteractive
         apt-get update -qq
         apt-get install -y -qq --no-install-recommends $missing >/dev/null
@@ -27,9 +32,10 @@ if [ -n "$missing" ]; then
         sudo apt-get update -qq
         sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $missing >/dev/null
     else
-        echo "warning: missing headless OpenGL libraries:$missing" >&2
+        echo "warning: missing system packages:$missing" >&2
         echo "         ask an administrator to run: apt-get install$missing" >&2
-        echo "         (or point MUJOCO_GL at a GL backend that works on this machine)" >&2
+        echo "         (for the GL libraries: or point MUJOCO_GL at a GL backend that works" >&2
+        echo "         on this machine; without chromium the docs browser test is skipped)" >&2
     fi
 fi
 

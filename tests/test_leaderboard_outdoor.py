@@ -235,5 +235,5 @@ def test_tiny_outdoor_tracks_score_band_means_and_share_the_drive(tmp_path):
     # the table lists each track's parts (conditions, unvisited region) below the scores
     table = write_table(tmp_path / "results")
     assert "outdoor_tiny_later: the parts of the score" in table
-    assert "| method | after | unvisited |" in table
-    assert "| method | after | later | unvisited |" in table
+    assert "| method | source | after | unvisited |" in table
+    assert "| method | source | after | later | unvisited |" in table

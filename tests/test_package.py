@@ -28,6 +28,8 @@ def test_wheel_ships_world_data_and_no_generic_top_level_modules(tmp_path):
     assert not top_level & (checkout_only | {"eval"}), top_level
     assert "sfa_gym/envs_data/paper_sim.json" in names
     assert "sfa_gym/tracks_data/train_test.json" in names
+    # the reference board that `sfa-gym leaderboard table` shows beside a user's results
+    assert "sfa_gym/published_data/leaderboard/quick.json" in names
     assert "sfa_gym/py.typed" in names
 
 
@@ -40,6 +42,9 @@ def test_gl_error_names_the_debian_packages(monkeypatch):
 
 def test_gl_falls_back_to_osmesa_when_egl_is_missing(monkeypatch):
     monkeypatch.delenv("MUJOCO_GL", raising=False)
+    # configure() sets PYOPENGL_PLATFORM for OSMesa: restore it afterwards, or every later
+    # context in this process would mix OSMesa's PyOpenGL with the EGL backend and crash
+    monkeypatch.delenv("PYOPENGL_PLATFORM", raising=False)
     monkeypatch.setattr(gl, "_loads", lambda names: names[0] == "OSMesa")
     assert gl.configure() == "osmesa"
 

@@ -103,17 +103,37 @@ class LeaderboardRun:
 
 @dataclass(frozen=True)
 class LeaderboardTable:
-    """Write LEADERBOARD.md and leaderboard.png from the result files of a folder."""
+    """The table of your results beside the committed reference results (published/leaderboard),
+    each row labelled by its source: LEADERBOARD.md and leaderboard.png, or --markdown."""
 
     results: Path = Path("results/leaderboard")
-    """results folder (searched recursively)"""
+    """your results folder (searched recursively)"""
     out: Path | None = None
     """where to write the table and the chart (default: the results folder)"""
+    reference: bool = True
+    """show the committed reference results beside yours"""
+    markdown: bool = False
+    """print the markdown table only (for README.md and docs/), write no files"""
 
     def run(self) -> int:
-        from sfa_gym.leaderboard.results import write_table
+        import sys
 
-        print(write_table(self.results, self.out), end="")
+        from sfa_gym.leaderboard.results import (
+            YOURS,
+            load_board,
+            markdown_table,
+            reference_folder,
+            write_table,
+        )
+
+        reference = reference_folder() if self.reference else None
+        board = load_board(self.results, reference)
+        if not any(source == YOURS for _, source in board.rows):
+            print(f"no results of yours under {self.results}", file=sys.stderr)
+        if self.markdown:
+            print(markdown_table(board), end="")
+        else:
+            print(write_table(self.results, self.out, reference), end="")
         return 0
 
 

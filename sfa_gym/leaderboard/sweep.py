@@ -40,7 +40,8 @@ def run_sweep(
         methods: plug-in files with their arguments (``{}``: the defaults).
         results_dir: the results folder (``<track>/<method label>[.quick].json`` inside).
         quick: the tracks' quick size.
-        backend, address, num_cpus: see :func:`~sfa_gym.leaderboard.backends.run_tasks`.
+        backend: ``"local"`` or ``"ray"``; it, ``address`` and ``num_cpus``: see
+            :func:`~sfa_gym.leaderboard.backends.run_tasks`.
         cache_dir: the render cache (None: the default one); must be reachable by every worker.
         controller: a controller plug-in file with its arguments, driving the rover on the
             navigation tracks instead of the tracks' gradient controller; every track must then

@@ -108,7 +108,8 @@ def firing_maps(
         n_outputs: Number of outputs (rows) to show, the first ones (the slowest for SFA).
         phis: ``(K,)`` radians of the views; default ``2 pi k / K`` (the full set of rotated views).
         cmap: Colour map; each row shares one colour scale so orientation changes are visible.
-        fig, ax: Figure to draw in, or an array of ``n_outputs x len(orientations)`` axes.
+        fig: Figure to draw in.
+        ax (numpy.ndarray | None): An array of ``n_outputs x len(orientations)`` axes to draw in.
 
     Returns:
         ``(fig, axes)`` with ``axes`` of shape ``(n_outputs, len(orientations))``.

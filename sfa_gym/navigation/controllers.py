@@ -421,7 +421,9 @@ class OracleController:
 
     Args:
         occupancy: the env's :class:`~sfa_gym.navigation.occupancy.OccupancyGrid`.
-        v_max, w_max: speed limits; dt: control period (s);
+        v_max: speed limit (m/s).
+        w_max: yaw rate limit (rad/s).
+        dt: control period (s).
         stop_radius: distance to the goal (m) at which it stops.
     """
 

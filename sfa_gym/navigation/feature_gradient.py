@@ -53,7 +53,9 @@ class LocalLinearFit:
 
     Args:
         weights: ``(k,)`` feature weights of the cost (for the fit's noise floor).
-        memory, window, prior: as in :class:`~sfa_gym.navigation.controllers.GradientSettings`.
+        memory: as in :class:`~sfa_gym.navigation.controllers.GradientSettings`.
+        window: as there.
+        prior: as there.
     """
 
     def __init__(self, weights: NDArray, memory: float, window: float, prior: float) -> None:

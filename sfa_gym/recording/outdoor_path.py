@@ -604,9 +604,9 @@ class OutdoorPathDriver(Driver):
 
     Args:
         part: ``"train"``, ``"test"`` (which starts where the training path ends) or ``"both"``.
-        train_frames, test_frames, spacing, test_spacing, avoid, clearance, margin, speed,
-            accel, turn_rate, turn_accel, balance, test_balance: see
-            :func:`plan_outdoor_paths`.
+        train_frames: this and ``test_frames``, ``spacing``, ``test_spacing``, ``avoid``,
+            ``clearance``, ``margin``, ``speed``, ``accel``, ``turn_rate``, ``turn_accel``,
+            ``balance``, ``test_balance``: see :func:`plan_outdoor_paths`.
         speed_limit: largest commanded speed (m/s), the paper's 0.4.
         turn_limit: largest commanded yaw rate (rad/s).
         gain_along: forward error gain (1/s).

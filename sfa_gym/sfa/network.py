@@ -379,8 +379,10 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
             layer_params: per layer, its spec, node grid and weights (the ``layers`` parameter
                 of the model is their specs).
             input_shape: ``(H, W, 3)`` of the views the model takes.
-            n_outputs, weight_sharing, clip, dtype, progress, n_jobs: as for the constructor.
-            fit_method, n_training_views: how the weights were trained, if known.
+            n_outputs: this and ``weight_sharing``, ``clip``, ``dtype``, ``progress``,
+                ``n_jobs``: as for the constructor.
+            fit_method: how the weights were trained, if known.
+            n_training_views: how many views they were trained on, if known.
 
         Raises:
             ValueError: the layers do not fit the architecture or each other, an array is not

@@ -68,7 +68,8 @@ def tiny(height: int = 10, width: int = 40, dim: int = 6, out_dim: int = 8) -> l
     4 x 20, 2 x 5 and 1 x 1. Rotation steps that are multiples of 2 use the shortcut.
 
     Args:
-        height, width: input size in pixels; ``height >= 6`` and ``width`` a multiple of 8.
+        height: input height in pixels, ``>= 6``.
+        width: input width in pixels, a multiple of 8.
         dim: linear SFA dimension of every node.
         out_dim: output dimension of every node (the network's ``n_outputs`` must not exceed it).
 

@@ -148,7 +148,8 @@ def check_framebuffer(width: int, height: int, what: str, *, limit: int | None =
     """Refuse an offscreen buffer of ``width x height`` pixels larger than OpenGL supports.
 
     Args:
-        width, height: the buffer's size, pixels.
+        width: the buffer's width, pixels.
+        height: the buffer's height, pixels.
         what: what needs the buffer, for the message (e.g. ``"PanoramaSpec(...)"``).
         limit: the largest side; by default the smaller of :data:`MAX_FRAMEBUFFER_SIDE` and
             the limit that a GL driver of this process reported.

@@ -353,8 +353,9 @@ class MDPHierarchicalSFA:
     for checking and benchmarking. A "feature model" (``input_shape_``, ``transform``).
 
     Args:
-        layers, n_outputs, weight_sharing, clip: as for ``HierarchicalSFA``.
-        rank_deficit_method, rank_tol: see :func:`build_mdp_network`. To reproduce a
+        layers: this and ``n_outputs``, ``weight_sharing``, ``clip``: as for
+            ``HierarchicalSFA``.
+        rank_deficit_method: this and ``rank_tol``: see :func:`build_mdp_network`. To reproduce a
             ``HierarchicalSFA`` on rank-deficient data, pass its rank tolerance (1e-6 for its
             default float32, 1e-9 for float64).
         batch_size: frames per training / execution chunk.

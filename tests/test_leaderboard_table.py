@@ -1,0 +1,92 @@
+"""``sfa-gym leaderboard table``: your results beside the committed reference results, each row
+labelled by its source; ``--markdown`` prints the table alone; gathered files read with clear
+errors."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from sfa_gym.cli.main import main
+from sfa_gym.leaderboard.results import (
+    FORMAT,
+    REFERENCE,
+    SCHEMA_VERSION,
+    load_results,
+    reference_folder,
+)
+
+
+def _result(track: str, label: str, seeds: dict[int, float]) -> dict:
+    """A result file of the leaderboard's format (the fields the table reads)."""
+    values = list(seeds.values())
+    return {
+        "format": FORMAT,
+        "schema_version": SCHEMA_VERSION,
+        "track": {"name": track, "quick": True, "track_version": 1},
+        "method": {"label": label},
+        "score": {
+            "mean": sum(values) / len(values),
+            "ci95": None,
+            "n": len(values),
+            "higher_is_better": False,
+        },
+        "tasks": [{"world_seed": s, "scores": {"score": v}} for s, v in seeds.items()],
+        "provenance": {"git_commit": None},
+    }
+
+
+def test_the_reference_results_are_found_and_read():
+    results = load_results(reference_folder(), REFERENCE)
+    assert {r["_source"] for r in results} == {REFERENCE}
+    tracks = {r["track"]["name"] for r in results}
+    assert {"few_labels", "nav_open", "outdoor_paper"} <= tracks
+    few = next(
+        r for r in results if r["track"]["name"] == "few_labels" and r["method"]["label"] == "pca"
+    )
+    seeds = [t["scores"]["score"] for t in few["tasks"]]
+    assert few["score"]["mean"] == pytest.approx(sum(seeds) / len(seeds))
+
+
+def test_your_results_are_shown_beside_the_reference(tmp_path, capsys):
+    mine = tmp_path / "results" / "few_labels" / "my_method.quick.json"
+    mine.parent.mkdir(parents=True)
+    mine.write_text(json.dumps(_result("few_labels", "my_method", {100: 3.25, 101: 3.75})))
+    out = tmp_path / "out"
+    assert main(["leaderboard", "table", "--results", str(mine.parents[1]), "--out", str(out)]) == 0
+    table = (out / "LEADERBOARD.md").read_text()
+    assert (out / "leaderboard.png").stat().st_size > 1000
+    lines = table.splitlines()
+    header = next(line for line in lines if line.startswith("| method | source |"))
+    column = header.split(" | ").index("few_labels (quick)")
+    yours = next(line for line in lines if line.startswith("| my_method | yours |"))
+    assert yours.split(" | ")[column] == "3.50"
+    # the reference rows of the same track, from the committed file
+    reference = [r for r in load_results(reference_folder()) if r["track"]["name"] == "few_labels"]
+    for r in reference:
+        row = next(line for line in lines if line.startswith(f"| {r['method']['label']} | "))
+        assert row.split(" | ")[1] == REFERENCE
+        assert row.split(" | ")[column].startswith(f"{r['score']['mean']:.2f} [")
+
+    capsys.readouterr()
+    assert main(["leaderboard", "table", "--results", str(mine.parents[1]), "--no-reference"]) == 0
+    alone = capsys.readouterr().out
+    assert "| my_method | yours | 3.50 |" in alone and "| reference |" not in alone
+
+
+def test_markdown_prints_the_table_and_writes_nothing(tmp_path, capsys):
+    empty = tmp_path / "none"
+    assert main(["leaderboard", "table", "--markdown", "--results", str(empty)]) == 0
+    captured = capsys.readouterr()
+    assert f"no results of yours under {empty}" in captured.err
+    assert "| band_means | reference |" in captured.out
+    assert not empty.exists()
+
+
+def test_a_gathered_entry_without_a_field_is_named(tmp_path):
+    (tmp_path / "board.json").write_text(
+        json.dumps({"results": [{"track": "few_labels", "method": "pca"}]})
+    )
+    with pytest.raises(ValueError, match=r"board.json.*lacks \['track_version', 'quick'"):
+        load_results(tmp_path)
