@@ -8,11 +8,9 @@ import json
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 import sfa_gym
 from sfa_gym._files import write_atomic
-from sfa_gym.localization.metrics import MAE, SplitMAE
+from sfa_gym.localization.metrics import mae_dict
 from sfa_gym.rotation import n_rotations
 
 __all__ = ["check_out_folder", "format_table", "mae_dict", "results_header", "write_results"]
@@ -37,16 +35,6 @@ def results_header(protocol: str, config: Any, width: int, step: int) -> dict[st
         "protocol": protocol,
         "config": dataclasses.asdict(config),
         "n_rotations": n_rotations(width, step),
-    }
-
-
-def mae_dict(result: MAE | SplitMAE) -> dict[str, list[float]]:
-    """MAE (m and % of the range), standard deviation and range per coordinate, rounded."""
-    return {
-        "mae_m": np.round(result.mae_m, 5).tolist(),
-        "mae_percent": np.round(result.mae_percent, 4).tolist(),
-        "std_m": np.round(result.std_m, 5).tolist(),
-        "range_m": np.round(result.range_m, 5).tolist(),
     }
 
 

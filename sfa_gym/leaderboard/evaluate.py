@@ -5,8 +5,9 @@ another process or machine unchanged; :func:`run_task` loads the track and the m
 returns the task's scores as JSON types. The evaluations reuse the protocols' code paths
 (:mod:`sfa_gym.experiments`): the same position selection, the same fitting of a method on all
 rotated views of the training panoramas in visiting order, the same regressions and MAE; the
-outdoor tracks are in :mod:`~sfa_gym.leaderboard.outdoor`, navigation in
-:mod:`~sfa_gym.leaderboard.navigation`. Rendered runs come from the shared
+outdoor and navigation tracks score with their protocols' ``score``
+(:mod:`sfa_gym.protocols.outdoor`, :mod:`sfa_gym.protocols.navigation`). Rendered runs come
+from the shared
 :class:`~sfa_gym.recording.cache.RunCache`.
 
 Every localization score is the mean of the x and y MAE in % of the test positions' coordinate
@@ -25,7 +26,7 @@ from numpy.typing import NDArray
 from threadpoolctl import threadpool_limits
 
 from sfa_gym.leaderboard.plugins import load_method
-from sfa_gym.leaderboard.tracks import Track, load_track
+from sfa_gym.leaderboard.tracks import Track, load_track, protocol_config
 from sfa_gym.recording.cache import RunCache, RunRequest
 
 __all__ = ["HIGHER_IS_BETTER", "Task", "run_task"]
@@ -66,6 +67,17 @@ def _mean_percent(result: Any) -> float:
 
 def _regressor(method: Any) -> str:
     return str(getattr(method, "regressor", "linear"))
+
+
+def _controller(path: str | None, args: Mapping[str, Any]) -> Any:
+    """``controller(env, weights)`` of a controller plug-in file (it sees only the rover's own
+    sensors), or None: the track's gradient controller."""
+    if path is None:
+        return None
+    from sfa_gym.navigation.plugins import Rover, load_controller_file
+
+    factory = load_controller_file(path)
+    return lambda env, weights: factory(Rover.of(env), weights, args)
 
 
 def _grid_run(
@@ -237,16 +249,18 @@ def run_task(task: Task) -> dict[str, Any]:
         if track.evaluation == "unvisited_region":
             scores = _region_scores(track, params, task.world_seed, method, cache)
         elif track.evaluation == "outdoor":
-            from sfa_gym.leaderboard.outdoor import outdoor_scores
+            from sfa_gym.protocols import outdoor
 
-            scores = outdoor_scores(track, params, task.world_seed, method, cache)
+            config = protocol_config("outdoor", params, track.seed)
+            found = outdoor.score(config, method, task.world_seed, cache)
+            scores = found.leaderboard(_regressor(method))
         elif track.evaluation == "navigation":
-            from sfa_gym.leaderboard.navigation import navigation_scores
+            from sfa_gym.protocols import navigation
 
-            scores = navigation_scores(
-                track, params, task.world_seed, method, cache,
-                controller=(task.controller_path, task.controller_args),
-            )  # fmt: skip
+            config = protocol_config("navigation", params, track.seed)
+            controller = _controller(task.controller_path, task.controller_args)
+            found = navigation.score(config, method, task.world_seed, cache, controller=controller)
+            scores = found.leaderboard()
         else:
             scores = _grid_scores(track, params, task.world_seed, method, cache)
     return {

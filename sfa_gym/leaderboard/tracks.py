@@ -12,18 +12,18 @@ A track file (``eval/tracks/<name>.json``) is a JSON object::
      "world": "paper_sim",            # a world spec name in envs/
      "world_seeds": [100, 101, ...],  # scoring worlds; one task each; the interval is across them
      "seed": 7001,                    # headings, train/test selection, splits, episodes
-     "params": {...},                 # the evaluation's sizes (see REQUIRED_PARAMS)
+     "params": {...},                 # the evaluation's sizes (see REQUIRED_PARAMS; outdoor
+                                      # and navigation: fields of the protocol's Config)
      "quick": {"world_seeds": 2, "params": {...}}}  # the reduced size: the first n world
                                                     # seeds and parameter overrides
 
 ``unseen_worlds`` adds ``"fit_world_seeds"`` (one per scoring world: the world the method is
-fitted on); ``navigation`` adds ``params.episode_seed`` (episodes ``episode_seed + i``) and
-``params.controller`` (every field of
-:class:`~sfa_gym.navigation.controllers.GradientSettings`, so that the library's defaults can
-change without changing a track's scores);
-``outdoor`` (the outdoor world's tracks, :mod:`~sfa_gym.leaderboard.outdoor`) takes the sizes
-of :class:`~sfa_gym.experiments.outdoor.OutdoorExperiment` and the test ``conditions`` scored,
-checked at both sizes when the file is loaded.
+fitted on). The ``params`` of ``outdoor`` and ``navigation`` are fields of the protocol's
+``Config`` (:class:`sfa_gym.protocols.outdoor.Config`, :class:`sfa_gym.protocols.navigation.Config`;
+the track's ``seed`` is its ``seed``), the others at their defaults, checked by its
+``validate()`` at both sizes when the file is loaded; ``navigation`` gives every field of
+``params.gradient`` (:class:`~sfa_gym.navigation.controllers.GradientSettings`), so that the
+library's defaults can change without changing a track's scores.
 
 Every seed of a track must stay clear of :data:`DEVELOPMENT_SEEDS`, the seeds the tests, the
 examples and the README use: a method tuned on those would otherwise be scored on what it was
@@ -42,17 +42,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from sfa_gym.leaderboard.outdoor import PARAMS as OUTDOOR_PARAMS
-
 __all__ = [
     "DEVELOPMENT_SEEDS",
     "EVALUATIONS",
+    "PROTOCOL_CONFIGS",
     "SCHEMA_VERSION",
     "Track",
     "TrackError",
     "default_track_folder",
     "list_tracks",
     "load_track",
+    "protocol_config",
     "track_from_dict",
 ]
 
@@ -101,19 +101,15 @@ REQUIRED_PARAMS: Mapping[str, tuple[str, ...]] = {
         "train_steps",
         "test_steps",
     ),
-    "outdoor": OUTDOOR_PARAMS,
-    "navigation": (
-        "env_id",
-        "panorama",
-        "train_grid",
-        "field_spacing",
-        "episodes",
-        "episode_seed",
-        "weight_power",
-        "controller",
-    ),
 }
-"""The ``params`` each evaluation needs (and accepts: others are refused as typos)."""
+"""The ``params`` each evaluation needs (and accepts: others are refused as typos), except
+those of :data:`PROTOCOL_CONFIGS`."""
+
+PROTOCOL_CONFIGS: Mapping[str, str] = {
+    "outdoor": "sfa_gym.protocols.outdoor",
+    "navigation": "sfa_gym.protocols.navigation",
+}
+"""Evaluations whose ``params`` are the protocol module's ``Config``."""
 
 EVALUATIONS: Mapping[str, str] = {
     "paper_splits": "localization",
@@ -282,7 +278,8 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
     params = data["params"]
     if not isinstance(params, dict):
         raise TrackError(f"{where}: params must be an object, got {params!r}")
-    required = REQUIRED_PARAMS[evaluation]
+    # the protocols' Configs check their own names (_check_protocol)
+    required = REQUIRED_PARAMS.get(evaluation, tuple(params))
     for name in required:
         if name not in params:
             raise TrackError(f"{where}: missing field 'params.{name}' (needed by {evaluation})")
@@ -290,7 +287,7 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
     if extra:
         raise TrackError(f"{where}: unknown field 'params.{extra[0]}' for {evaluation}")
     if evaluation == "navigation":
-        _check_controller(where, params["controller"])
+        _check_controller(where, params.get("gradient"))
     if "episode_seed" in params:
         first = _int(where, "params.episode_seed", params["episode_seed"])
         episodes = _int(where, "params.episodes", params["episodes"])
@@ -304,11 +301,13 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
             f"{where}: quick.world_seeds must be in [1, {len(world_seeds)}], got {n_quick}"
         )
     overrides = quick.get("params", {})
+    if evaluation in PROTOCOL_CONFIGS and isinstance(overrides, dict):
+        required = (*required, *overrides)  # the protocol's Config checks the names
     if not isinstance(overrides, dict) or set(overrides) - set(required):
         bad = sorted(set(overrides) - set(required)) if isinstance(overrides, dict) else overrides
         raise TrackError(f"{where}: quick.params overrides unknown params {bad!r}")
-    if evaluation == "outdoor":
-        _check_outdoor(where, data["world"], world_seeds[0], seed, params, overrides)
+    if evaluation in PROTOCOL_CONFIGS:
+        _check_protocol(where, evaluation, data["world"], seed, params, overrides)
     return Track(
         name=data["name"],
         track_version=track_version,
@@ -326,49 +325,61 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
 
 
 def _check_controller(where: str, controller: Any) -> None:
-    """``params.controller`` must give every setting of the gradient controller, valid: a change
-    of the library's defaults must not change a track's scores."""
+    """``params.gradient`` must give every setting of the gradient controller: a change of the
+    library's defaults must not change a track's scores (the values are checked with the
+    protocol's Config)."""
     from sfa_gym.navigation.controllers import GradientSettings
 
     names = {f.name for f in dataclasses.fields(GradientSettings)}
     if not isinstance(controller, dict):
-        raise TrackError(f"{where}: params.controller must be an object, got {controller!r}")
-    missing, unknown = sorted(names - set(controller)), sorted(set(controller) - names)
+        raise TrackError(f"{where}: params.gradient must be an object, got {controller!r}")
+    missing = sorted(names - set(controller))
     if missing:
-        raise TrackError(f"{where}: missing field 'params.controller.{missing[0]}'")
-    if unknown:
-        raise TrackError(f"{where}: unknown field 'params.controller.{unknown[0]}'")
-    try:
-        GradientSettings(**controller).validate()
-    except (TypeError, ValueError) as err:
-        raise TrackError(f"{where}: params.controller: {err}") from None
+        raise TrackError(f"{where}: missing field 'params.gradient.{missing[0]}'")
 
 
-def _check_outdoor(
+def protocol_config(evaluation: str, params: Mapping[str, Any], seed: int) -> Any:
+    """The checked ``Config`` of a track's ``params`` (one size) for an evaluation of
+    :data:`PROTOCOL_CONFIGS`: ``dataclasses.replace(Config(seed=seed), **params)``.
+
+    Raises:
+        ValueError, TypeError: a bad or unknown parameter, named.
+    """
+    import importlib
+
+    from sfa_gym.protocols.params import config_from_params
+
+    protocol = importlib.import_module(PROTOCOL_CONFIGS[evaluation])
+    return config_from_params(protocol.Config(seed=seed), params)
+
+
+def _check_protocol(
     where: str,
+    evaluation: str,
     world: str,
-    world_seed: int,
     seed: int,
     params: dict[str, Any],
     overrides: dict[str, Any],
 ) -> None:
-    """Refuse an outdoor track whose world is not the outdoor env's or whose parameters the
-    outdoor experiment refuses, at either size."""
+    """Refuse a track whose parameters the protocol's Config refuses, at either size, or whose
+    world is not the one of the env it renders in."""
+    import importlib
+
     import gymnasium as gym
 
-    from sfa_gym.leaderboard.outdoor import ENV_ID, outdoor_config
-
-    expected = gym.spec(ENV_ID).kwargs["world"]
-    if world != expected:
-        raise TrackError(
-            f"{where}: world {world!r}: an outdoor track renders in {ENV_ID}, whose world is "
-            f"{expected!r}"
-        )
     for size, sized in (("params", params), ("quick.params", {**params, **overrides})):
         try:
-            outdoor_config(sized, world_seed, seed)
+            config = protocol_config(evaluation, sized, seed)
         except (TypeError, ValueError) as error:
             raise TrackError(f"{where}: {size}: {error}") from None
+        protocol = importlib.import_module(PROTOCOL_CONFIGS[evaluation])
+        env_id = getattr(config, "env_id", None) or protocol.ENV_ID
+        expected = gym.spec(env_id).kwargs["world"]
+        if world != expected:
+            raise TrackError(
+                f"{where}: world {world!r}: the {evaluation} track renders in {env_id}, whose "
+                f"world is {expected!r}"
+            )
 
 
 def load_track(path: str | os.PathLike[str]) -> Track:

@@ -27,6 +27,7 @@ __all__ = [
     "eta_r",
     "fit_predict",
     "mae",
+    "mae_dict",
     "predict_locations",
     "random_split_mae",
     "train_test_mae",
@@ -298,3 +299,14 @@ def eta(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(eta_r, eta_phi)``, each ``(n_outputs,)``; see :func:`eta_r`."""
     return eta_r(outputs, normalize), eta_phi(outputs, normalize)
+
+
+def mae_dict(result: MAE | SplitMAE) -> dict[str, list[float]]:
+    """``result`` as results files hold it: MAE (m and % of the range), standard deviation
+    and range per coordinate, rounded."""
+    return {
+        "mae_m": np.round(result.mae_m, 5).tolist(),
+        "mae_percent": np.round(result.mae_percent, 4).tolist(),
+        "std_m": np.round(result.std_m, 5).tolist(),
+        "range_m": np.round(result.range_m, 5).tolist(),
+    }
