@@ -105,11 +105,9 @@ REQUIRED_PARAMS: Mapping[str, tuple[str, ...]] = {
 """The ``params`` each evaluation needs (and accepts: others are refused as typos), except
 those of :data:`PROTOCOL_CONFIGS`."""
 
-PROTOCOL_CONFIGS: Mapping[str, str] = {
-    "outdoor": "sfa_gym.protocols.outdoor",
-    "navigation": "sfa_gym.protocols.navigation",
-}
-"""Evaluations whose ``params`` are the protocol module's ``Config``."""
+PROTOCOL_CONFIGS = ("outdoor", "navigation")
+"""Evaluations whose ``params`` are the ``Config`` of the protocol module of the same name
+(:mod:`sfa_gym.protocols.outdoor`, :mod:`sfa_gym.protocols.navigation`)."""
 
 EVALUATIONS: Mapping[str, str] = {
     "paper_splits": "localization",
@@ -278,13 +276,13 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
     params = data["params"]
     if not isinstance(params, dict):
         raise TrackError(f"{where}: params must be an object, got {params!r}")
-    # the protocols' Configs check their own names (_check_protocol)
-    required = REQUIRED_PARAMS.get(evaluation, tuple(params))
+    # a protocol's Config checks its own names (_check_protocol)
+    required = REQUIRED_PARAMS.get(evaluation, ())
     for name in required:
         if name not in params:
             raise TrackError(f"{where}: missing field 'params.{name}' (needed by {evaluation})")
     extra = sorted(set(params) - set(required))
-    if extra:
+    if extra and evaluation not in PROTOCOL_CONFIGS:
         raise TrackError(f"{where}: unknown field 'params.{extra[0]}' for {evaluation}")
     if evaluation == "navigation":
         _check_controller(where, params.get("gradient"))
@@ -301,9 +299,9 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
             f"{where}: quick.world_seeds must be in [1, {len(world_seeds)}], got {n_quick}"
         )
     overrides = quick.get("params", {})
-    if evaluation in PROTOCOL_CONFIGS and isinstance(overrides, dict):
-        required = (*required, *overrides)  # the protocol's Config checks the names
-    if not isinstance(overrides, dict) or set(overrides) - set(required):
+    if not isinstance(overrides, dict) or (
+        evaluation not in PROTOCOL_CONFIGS and set(overrides) - set(required)
+    ):
         bad = sorted(set(overrides) - set(required)) if isinstance(overrides, dict) else overrides
         raise TrackError(f"{where}: quick.params overrides unknown params {bad!r}")
     if evaluation in PROTOCOL_CONFIGS:
@@ -345,12 +343,16 @@ def protocol_config(evaluation: str, params: Mapping[str, Any], seed: int) -> An
     Raises:
         ValueError, TypeError: a bad or unknown parameter, named.
     """
-    import importlib
-
     from sfa_gym.protocols.params import config_from_params
 
-    protocol = importlib.import_module(PROTOCOL_CONFIGS[evaluation])
-    return config_from_params(protocol.Config(seed=seed), params)
+    return config_from_params(_protocol(evaluation).Config(seed=seed), params)
+
+
+def _protocol(evaluation: str) -> Any:
+    """The protocol module of an evaluation of :data:`PROTOCOL_CONFIGS`."""
+    from sfa_gym.protocols import navigation, outdoor
+
+    return {"outdoor": outdoor, "navigation": navigation}[evaluation]
 
 
 def _check_protocol(
@@ -363,8 +365,6 @@ def _check_protocol(
 ) -> None:
     """Refuse a track whose parameters the protocol's Config refuses, at either size, or whose
     world is not the one of the env it renders in."""
-    import importlib
-
     import gymnasium as gym
 
     for size, sized in (("params", params), ("quick.params", {**params, **overrides})):
@@ -372,8 +372,7 @@ def _check_protocol(
             config = protocol_config(evaluation, sized, seed)
         except (TypeError, ValueError) as error:
             raise TrackError(f"{where}: {size}: {error}") from None
-        protocol = importlib.import_module(PROTOCOL_CONFIGS[evaluation])
-        env_id = getattr(config, "env_id", None) or protocol.ENV_ID
+        env_id = getattr(config, "env_id", None) or _protocol(evaluation).ENV_ID
         expected = gym.spec(env_id).kwargs["world"]
         if world != expected:
             raise TrackError(
