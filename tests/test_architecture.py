@@ -108,11 +108,6 @@ def test_modules_stay_short_or_say_why(name):
     )
 
 
-# leaderboard modules that still import sfa_gym.experiments: the outdoor and navigation tasks,
-# until their protocols move to sfa_gym.protocols (then this list is empty)
-LEADERBOARD_IMPORTS_EXPERIMENTS = {"sfa_gym.leaderboard.outdoor", "sfa_gym.leaderboard.navigation"}
-
-
 def _package_imports() -> dict[str, set[str]]:
     modules = _modules()
     return {name: _imports(name, path, modules) for name, path in modules.items()}
@@ -126,8 +121,6 @@ def test_the_leaderboard_scores_through_the_protocols_not_the_experiments():
     assert "sfa_gym.leaderboard.evaluate" in leaderboard
     assert any(i.startswith("sfa_gym.protocols") for m in leaderboard for i in graph[m])
     for module in leaderboard:
-        if module in LEADERBOARD_IMPORTS_EXPERIMENTS:
-            continue
         reached = sorted(i for i in graph[module] if i.split(".")[:2] == ["sfa_gym", "experiments"])
         assert not reached, f"{module} imports {reached}: the leaderboard scores through protocols"
 

@@ -126,8 +126,8 @@ def test_navigation_episode_seeds_must_avoid_the_readme_episodes():
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        (lambda c: c.pop("memory"), "missing field 'params.controller.memory'"),
-        (lambda c: c.update(speed_limit=1.0), "unknown field 'params.controller.speed_limit'"),
+        (lambda c: c.pop("memory"), "missing field 'params.gradient.memory'"),
+        (lambda c: c.update(speed_limit=1.0), "unknown setting 'gradient.speed_limit'"),
         (lambda c: c.update(memory=-1.0), "memory must be a positive number, got -1.0"),
     ],
 )
@@ -140,8 +140,8 @@ def test_navigation_tracks_fix_every_controller_setting(change, message):
         GradientSettings(), searches=0, search_after=4.0, search_found=0.5, give_up=6.0
     )
     assert track.track_version == 2
-    assert GradientSettings(**track.params["controller"]) == scored_with
-    change(data["params"]["controller"])
+    assert GradientSettings(**track.params["gradient"]) == scored_with
+    change(data["params"]["gradient"])
     with pytest.raises(TrackError, match=message):
         track_from_dict(data, "nav_open.json")
 
@@ -433,13 +433,14 @@ NAV_TINY = {
     "seed": 7001,
     "params": {
         "env_id": "sfa_gym/OmniRoverNavObstacles-v0",
-        "panorama": [40, 350],
         "train_grid": 5,
+        "train_headings": "random",
+        "hilbert_axes": "yx",
         "field_spacing": 1.5,
         "episodes": 2,
         "episode_seed": 50000,
         "weight_power": 2.0,
-        "controller": dataclasses.asdict(GradientSettings()),
+        "gradient": dataclasses.asdict(GradientSettings()),
     },
     "quick": {"world_seeds": 1},
 }
@@ -505,8 +506,8 @@ def test_free_grid_positions_skip_exactly_the_cells_reset_refuses(obstacles_came
 def test_cached_field_is_the_built_field_and_its_panoramas_serve_every_method(
     obstacles_nav, obstacles_camera, tmp_path
 ):
-    from sfa_gym.leaderboard.navigation import cached_feature_field
     from sfa_gym.navigation.field import FeatureField
+    from sfa_gym.protocols.navigation import feature_field
 
     cache = RunCache(tmp_path)
     built = FeatureField.build(
@@ -516,16 +517,12 @@ def test_cached_field_is_the_built_field_and_its_panoramas_serve_every_method(
         free=obstacles_nav.occupancy.is_free,
         progress=False,
     )
-    field = cached_feature_field(
-        obstacles_nav, _MeanColour(), 1.5, cache, panorama=(40, 350), seed=7001
-    )
+    field = feature_field(obstacles_nav, _MeanColour(), 1.5, cache, seed=7001)
     np.testing.assert_array_equal(field.free, built.free)
     assert not field.free.all()  # nodes inside obstacles, filled from their neighbours
     np.testing.assert_allclose(field.values, built.values, rtol=0, atol=1e-9)
     field.check_env(obstacles_nav)  # the metadata names this world and camera
-    other = cached_feature_field(
-        obstacles_nav, _TopRowColour(), 1.5, cache, panorama=(40, 350), seed=7001
-    )
+    other = feature_field(obstacles_nav, _TopRowColour(), 1.5, cache, seed=7001)
     assert len(cache.renders()) == 1  # the second method's field reused the panoramas
     assert not np.allclose(other.values, field.values)  # its own features
 

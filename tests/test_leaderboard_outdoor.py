@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from sfa_gym.leaderboard.outdoor import ENV_ID, outdoor_requests
 from sfa_gym.leaderboard.tracks import TrackError, list_tracks, track_from_dict
+from sfa_gym.protocols.outdoor import ENV_ID, requests
 from sfa_gym.recording.cache import RunCache, RunRequest
 from sfa_gym.recording.outdoor_path import OutdoorPathDriver
 from sfa_gym.sim.camera import MirrorSpec
@@ -73,11 +73,11 @@ def test_shipped_outdoor_tracks_load_and_share_one_drive_per_world_seed():
     assert paper.params["train_frames"] == 5900 and paper.params["test_frames"] == 2800
     assert min(paper.world_seeds) >= 10  # outdoor world seeds 0..9 are development seeds
     for quick in (False, True):
-        seeds, params = paper.sized(quick)
+        seeds, _ = paper.sized(quick)
         assert appearance.sized(quick)[0] == seeds
         for seed in seeds:
-            mine = outdoor_requests(paper, params, seed)
-            theirs = outdoor_requests(appearance, appearance.sized(quick)[1], seed)
+            mine = requests(paper.config(quick), seed)
+            theirs = requests(appearance.config(quick), seed)
             assert list(mine) == ["drive"]
             assert list(theirs) == ["drive", "later", "overcast", "no_movers", "other_day"]
             # the appearance track scores on the very render of the paper's track
@@ -89,11 +89,11 @@ def test_shipped_outdoor_tracks_load_and_share_one_drive_per_world_seed():
     ("change", "message"),
     [
         (lambda d: d["params"].update(conditions=["after", "sunset"]), "'sunset'"),
-        (lambda d: d["params"].update(conditions=[]), "conditions must be a non-empty list"),
+        (lambda d: d["params"].update(conditions=[]), "conditions must be a non-empty tuple"),
         (lambda d: d["params"].update(conditions=["later", "later"]), "repeats a condition"),
         (lambda d: d["params"].update(frame_dt=0), "params: frame_dt must be a positive"),
         (lambda d: d["params"].update(panorama=[16, 161]), "161"),
-        (lambda d: d["params"].pop("later_hours"), "missing field 'params.later_hours'"),
+        (lambda d: d["params"].update(hours=3), "unknown field 'params.hours'"),
         (lambda d: d["quick"].update(params={"train_frames": 5}), "quick.params: train_frames"),
         (lambda d: d.update(world="paper_sim"), "renders in sfa_gym/OmniRoverOutdoor-v0"),
         (lambda d: d.update(world_seeds=[300, 9]), "world_seeds 9 is a development seed"),

@@ -11,11 +11,13 @@ import numpy as np
 import pytest
 
 import sfa_gym  # noqa: F401  (registers the ids)
-from sfa_gym.experiments.navigation import NavigationExperiment, _training_run
+from sfa_gym.experiments.navigation import NavigationExperiment
 from sfa_gym.features import rotation_averaged_features
 from sfa_gym.navigation.controllers import GradientController, GradientSettings, slowness_weights
 from sfa_gym.navigation.evaluate import run_episode
 from sfa_gym.navigation.field import FeatureField
+from sfa_gym.protocols.navigation import training_run
+from sfa_gym.recording.cache import RunCache
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
 from sfa_gym.sim.env import OmniRoverEnv
 
@@ -71,13 +73,13 @@ def test_navigation_experiment_checks_the_controller_settings():
 
 
 @pytest.fixture(scope="module")
-def trained():
+def trained(tmp_path_factory):
     """Hierarchical SFA (small) fitted on a 14 x 14 grid in Hilbert order, its slowness weights,
     and its feature field at 0.3 m."""
     nav = gym.make("sfa_gym/OmniRoverNav-v0").unwrapped
     camera = OmniRoverEnv(nav.world, nav.world_seed, nav.panorama)
-    panoramas, visits = _training_run(NavigationExperiment(train_grid=14), nav, camera, False)
-    train = panoramas[visits]
+    runs = RunCache(tmp_path_factory.mktemp("renders"))
+    train = training_run(NavigationExperiment(train_grid=14), nav, runs).sequence
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RankDeficiencyWarning)
         model = HierarchicalSFA(

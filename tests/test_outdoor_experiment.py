@@ -18,21 +18,21 @@ from sfa_gym.sim.worlds import load_world_spec
 
 def test_each_condition_changes_one_thing_against_the_run_right_after_training():
     config = OutdoorExperiment(start_hour=9.0, later_hours=3.0)
-    drive = config.env_kwargs("after")
+    drive = config.env_kwargs("after", 0)
     assert drive["start_hour"] == 9.0 and drive["rover"] == "outdoor" and drive["sensor"]
     # the test runs start where the "after" part of the drive does: 5900 frames of 0.1 s later
     hour = 9.0 + 590.0 / 3600.0
     base = {k: v for k, v in drive.items() if k != "start_hour"}
-    later = config.env_kwargs("later")
+    later = config.env_kwargs("later", 0)
     assert later == {**base, "start_hour": pytest.approx(hour + 3.0)}
-    assert config.env_kwargs("no_movers") == {
+    assert config.env_kwargs("no_movers", 0) == {
         **base,
         "start_hour": pytest.approx(hour),
         "movers": False,
     }
     declared = load_world_spec("paper_outdoor").dynamics
     for condition, change in (("overcast", {"overcast": 1.0}), ("other_day", {"day": 1})):
-        kwargs = config.env_kwargs(condition)
+        kwargs = config.env_kwargs(condition, 0)
         assert kwargs.pop("dynamics") == dataclasses.replace(declared, **change)
         assert kwargs == {**base, "start_hour": pytest.approx(hour)}
     assert set(CONDITIONS) == {"after", "later", "overcast", "no_movers", "other_day"}
@@ -40,7 +40,7 @@ def test_each_condition_changes_one_thing_against_the_run_right_after_training()
 
 def test_ablation_switches_reach_the_env_kwargs():
     config = OutdoorExperiment(dynamics=False, sensor=False, vibration=False, camera="cylindrical")
-    kwargs = config.env_kwargs("after")
+    kwargs = config.env_kwargs("after", 0)
     assert kwargs["dynamics"] is False and kwargs["sensor"] is False
     assert kwargs["rover"] == "default" and kwargs["camera"] == "cylindrical"
     assert "start_hour" not in kwargs

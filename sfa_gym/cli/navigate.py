@@ -20,7 +20,8 @@ class Navigate:
     methods of a folder of plug-in files, beside the oracle (upper bound) and a random policy."""
 
     out: Path
-    """output folder (created); the SFA model and the feature fields are kept there and reused"""
+    """output folder (created); the renders, the SFA model and the feature fields are kept there
+    and reused while the settings that made them stay the same (else computed again)"""
     settings: tyro.conf.OmitArgPrefixes[NavigationExperiment] = NavigationExperiment()
     """settings of the navigation protocol"""
     baselines: Path | None = None

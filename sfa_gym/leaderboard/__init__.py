@@ -4,10 +4,9 @@
 - :mod:`sfa_gym.plugins`: methods and controllers loaded by name or path (the plug-in contract).
 - :mod:`~sfa_gym.recording.cache`: the shared render cache.
 - :mod:`~sfa_gym.leaderboard.evaluate`: one (track, method, world seed) task.
-- :mod:`~sfa_gym.leaderboard.outdoor`: the outdoor tracks (the paper's outdoor protocol, the
-  appearance tracks), their runs from the cache.
-- :mod:`~sfa_gym.leaderboard.navigation`: the navigation tasks, their feature fields from the
-  cache; :mod:`~sfa_gym.recording.poses`: the pose sets rendered in worlds with obstacles.
+- :mod:`sfa_gym.protocols`: what a task scores (the outdoor and navigation tracks call their
+  protocol's ``score`` with the render cache); :mod:`~sfa_gym.recording.poses`: the pose sets
+  rendered in worlds with obstacles.
 - :mod:`~sfa_gym.leaderboard.backends`: running the tasks locally or on Ray.
 - :mod:`~sfa_gym.leaderboard.results`: result files with provenance and intervals; the table.
 """

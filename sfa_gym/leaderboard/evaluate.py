@@ -2,12 +2,10 @@
 
 A :class:`Task` holds only plain values (paths, a dict of arguments, ints), so that it travels to
 another process or machine unchanged; :func:`run_task` loads the track and the method there and
-returns the task's scores as JSON types. An evaluation with a protocol
-(:data:`~sfa_gym.leaderboard.tracks.PROTOCOLS`: the grid and trajectory protocols of
-:mod:`sfa_gym.protocols`) is scored by that protocol's ``score``, the code behind the command
-line's results, with the track's ``Config``; the outdoor tracks are in
-:mod:`~sfa_gym.leaderboard.outdoor`, navigation in :mod:`~sfa_gym.leaderboard.navigation`.
-Rendered runs come from the shared :class:`~sfa_gym.recording.cache.RunCache`.
+returns the task's scores as JSON types. Every evaluation is scored by its protocol's ``score``
+(:mod:`sfa_gym.protocols`: grid, trajectory, outdoor, navigation), the code behind the command
+line's results, with the track's ``Config``. Rendered runs come from the shared
+:class:`~sfa_gym.recording.cache.RunCache`.
 
 Every localization score is the mean of the x and y MAE in % of the test positions' coordinate
 range (lower is better); the navigation score is the success rate (higher is better).
@@ -22,7 +20,7 @@ from typing import Any
 
 from threadpoolctl import threadpool_limits
 
-from sfa_gym.leaderboard.tracks import PROTOCOLS, Track, load_track, protocol_module
+from sfa_gym.leaderboard.tracks import Track, load_track, protocol_module
 from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
 
@@ -59,15 +57,29 @@ class Task:
 
 
 def _protocol_scores(track: Track, task: Task, method: Any, cache: RunCache) -> dict[str, Any]:
-    """Scores of an evaluation scored by a protocol (:data:`~sfa_gym.leaderboard.tracks.
-    PROTOCOLS`): its ``score`` with the track's ``Config``, the method's own regression and,
-    on ``unseen_worlds``, the world the method is fitted on."""
+    """The task's scores from its protocol (:data:`~sfa_gym.leaderboard.tracks.PROTOCOLS`):
+    ``score`` with the track's ``Config`` and the method's own regression; on
+    ``unseen_worlds`` the world the method is fitted on, on navigation tracks the controller."""
     protocol = protocol_module(track.evaluation)
-    other = {}
+    other: dict[str, Any] = {}
     if track.fit_world_seeds:
         other["fit_world_seed"] = track.fit_world_seed(task.world_seed)
+    if track.evaluation == "navigation":
+        other["controller"] = _controller(task.controller_path, task.controller_args)
     found = protocol.score(track.config(task.quick), method, task.world_seed, cache, **other)
     return found.task_scores()
+
+
+def _controller(path: str | None, args: Mapping[str, Any]) -> Any:
+    """``controller(env, weights)`` of a controller plug-in (it sees only the rover's own
+    sensors), or None: the track's gradient controller."""
+    if path is None:
+        return None
+    from sfa_gym.navigation.sensors import Rover
+    from sfa_gym.plugins import load_controller_plugin
+
+    plugin = load_controller_plugin(path)
+    return lambda env, weights: plugin(Rover.of(env), weights, args)
 
 
 def run_task(task: Task) -> dict[str, Any]:
@@ -79,7 +91,7 @@ def run_task(task: Task) -> dict[str, Any]:
     """
     started = time.perf_counter()
     track = load_track(task.track_path)
-    seeds, params = track.sized(task.quick)
+    seeds, _ = track.sized(task.quick)
     if task.world_seed not in seeds:
         raise ValueError(
             f"world seed {task.world_seed} is not a scoring seed of track {track.name!r} "
@@ -95,21 +107,7 @@ def run_task(task: Task) -> dict[str, Any]:
     # a Ray worker starts single-threaded while a local process does not, so the same task
     # would otherwise differ in the last digits between backends.
     with threadpool_limits(limits=1):
-        if track.evaluation in PROTOCOLS:
-            scores = _protocol_scores(track, task, method, cache)
-        elif track.evaluation == "outdoor":
-            from sfa_gym.leaderboard.outdoor import outdoor_scores
-
-            scores = outdoor_scores(track, params, task.world_seed, method, cache)
-        elif track.evaluation == "navigation":
-            from sfa_gym.leaderboard.navigation import navigation_scores
-
-            scores = navigation_scores(
-                track, params, task.world_seed, method, cache,
-                controller=(task.controller_path, task.controller_args),
-            )  # fmt: skip
-        else:
-            raise ValueError(f"track {track.name!r}: no scorer for {track.evaluation!r}")
+        scores = _protocol_scores(track, task, method, cache)
     return {
         "world_seed": task.world_seed,
         "fit_world_seed": track.fit_world_seed(task.world_seed),

@@ -22,13 +22,12 @@ seed=seed, **params)`` (lists as tuples; the fields an evaluation fixes, :data:`
 added), checked by ``Config.validate()`` at both sizes when the file is loaded; a field left
 out takes the ``Config``'s default.
 ``unseen_worlds`` adds ``"fit_world_seeds"`` (one per scoring world: the world the method is
-fitted on); ``navigation`` adds ``params.episode_seed`` (episodes ``episode_seed + i``) and
-``params.controller`` (every field of
-:class:`~sfa_gym.navigation.controllers.GradientSettings`, so that the library's defaults can
-change without changing a track's scores);
-``outdoor`` (the outdoor world's tracks, :mod:`~sfa_gym.leaderboard.outdoor`) takes the sizes
-of :class:`~sfa_gym.experiments.outdoor.OutdoorExperiment` and the test ``conditions`` scored,
-checked at both sizes when the file is loaded.
+fitted on). The ``params`` of ``outdoor`` and ``navigation`` are fields of the protocol's
+``Config`` (:class:`sfa_gym.protocols.outdoor.Config`, :class:`sfa_gym.protocols.navigation.Config`;
+the track's ``seed`` is its ``seed``), the others at their defaults, checked by its
+``validate()`` at both sizes when the file is loaded; ``navigation`` gives every field of
+``params.gradient`` (:class:`~sfa_gym.navigation.controllers.GradientSettings`), so that the
+library's defaults can change without changing a track's scores.
 
 Every seed of a track must stay clear of :data:`DEVELOPMENT_SEEDS`, the seeds the tests, the
 examples and the README use: a method tuned on those would otherwise be scored on what it was
@@ -46,8 +45,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
-
-from sfa_gym.leaderboard.outdoor import PARAMS as OUTDOOR_PARAMS
 
 __all__ = [
     "DEVELOPMENT_SEEDS",
@@ -95,6 +92,8 @@ PROTOCOLS: Mapping[str, str] = {
     "few_labels": "sfa_gym.protocols.grid",
     "unseen_worlds": "sfa_gym.protocols.grid",
     "unvisited_region": "sfa_gym.protocols.trajectory",
+    "outdoor": "sfa_gym.protocols.outdoor",
+    "navigation": "sfa_gym.protocols.navigation",
 }
 """The protocol module (:mod:`sfa_gym.protocols`) that scores each evaluation: a track's
 ``params`` are fields of its ``Config`` (see :meth:`Track.config`) and its ``score`` scores a
@@ -109,23 +108,8 @@ FIXED_SETTINGS: Mapping[str, Mapping[str, Any]] = {
 """Settings of the protocol's ``Config`` that an evaluation fixes (its ``params`` may not)."""
 
 TRACK_SETTINGS = ("world", "seed")
-"""``Config`` fields that come from the track's own fields of the same names."""
-
-OTHER_PARAMS: Mapping[str, tuple[str, ...]] = {
-    "outdoor": OUTDOOR_PARAMS,
-    "navigation": (
-        "env_id",
-        "panorama",
-        "train_grid",
-        "field_spacing",
-        "episodes",
-        "episode_seed",
-        "weight_power",
-        "controller",
-    ),
-}
-"""The ``params`` of the evaluations not yet scored through a protocol ``Config`` (each needs
-and accepts exactly these)."""
+"""``Config`` fields that come from the track's own fields of the same names (where the
+``Config`` has them: the outdoor and navigation protocols take their world from their env)."""
 
 EVALUATIONS: Mapping[str, str] = {
     "paper_splits": "localization",
@@ -192,7 +176,7 @@ class Track:
         module docstring).
 
         Raises:
-            TrackError: the evaluation has no protocol ``Config`` (:data:`OTHER_PARAMS`).
+            TrackError: the evaluation has no protocol (:data:`PROTOCOLS`).
         """
         if self.evaluation not in PROTOCOLS:
             raise TrackError(f"evaluation {self.evaluation!r} is not scored by a protocol Config")
@@ -221,22 +205,18 @@ def protocol_module(evaluation: str) -> Any:
     return importlib.import_module(PROTOCOLS[evaluation])
 
 
-def _tuples(value: Any) -> Any:
-    """JSON lists as tuples (the Configs' sequences are tuples), recursively."""
-    if isinstance(value, list | tuple):
-        return tuple(_tuples(v) for v in value)
-    return value
-
-
 def _protocol_config(evaluation: str, world: str, seed: int, params: Mapping[str, Any]) -> Any:
+    """The checked ``Config`` of one size of a track: the protocol's defaults, the track's
+    :data:`TRACK_SETTINGS` where the ``Config`` has them, the evaluation's
+    :data:`FIXED_SETTINGS`, then ``params`` (:func:`~sfa_gym.protocols.params.config_from_params`:
+    lists as tuples, objects as nested settings, ``validate()``)."""
+    from sfa_gym.protocols.params import config_from_params
+
     config_type = protocol_module(evaluation).Config
-    settings = {
-        "world": world,
-        "seed": seed,
-        **FIXED_SETTINGS.get(evaluation, {}),
-        **{name: _tuples(value) for name, value in params.items()},
-    }
-    return dataclasses.replace(config_type(), **settings)
+    names = {f.name for f in dataclasses.fields(config_type)}
+    track = {name: value for name, value in (("world", world), ("seed", seed)) if name in names}
+    default = dataclasses.replace(config_type(), **track, **FIXED_SETTINGS.get(evaluation, {}))
+    return config_from_params(default, params)
 
 
 def _check_protocol_params(
@@ -262,9 +242,23 @@ def _check_protocol_params(
                 )
     for size, sized in (("params", params), ("quick.params", {**params, **overrides})):
         try:
-            _protocol_config(evaluation, data["world"], data["seed"], sized).validate()
+            config = _protocol_config(evaluation, data["world"], data["seed"], sized)
         except (TypeError, ValueError) as error:
             raise TrackError(f"{where}: {size}: {error}") from None
+        if "world" not in names:  # the protocol renders in its env's world: it must be the track's
+            _check_env_world(where, evaluation, data["world"], config)
+
+
+def _check_env_world(where: str, evaluation: str, world: str, config: Any) -> None:
+    import gymnasium as gym
+
+    env_id = getattr(config, "env_id", None) or protocol_module(evaluation).ENV_ID
+    expected = gym.spec(env_id).kwargs["world"]
+    if world != expected:
+        raise TrackError(
+            f"{where}: world {world!r}: the {evaluation} track renders in {env_id}, whose "
+            f"world is {expected!r}"
+        )
 
 
 def _int(where: str, name: str, value: Any) -> int:
@@ -359,15 +353,8 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
     params = data["params"]
     if not isinstance(params, dict):
         raise TrackError(f"{where}: params must be an object, got {params!r}")
-    required = OTHER_PARAMS.get(evaluation, ())
-    for name in required:
-        if name not in params:
-            raise TrackError(f"{where}: missing field 'params.{name}' (needed by {evaluation})")
-    extra = sorted(set(params) - set(required))
-    if evaluation not in PROTOCOLS and extra:
-        raise TrackError(f"{where}: unknown field 'params.{extra[0]}' for {evaluation}")
     if evaluation == "navigation":
-        _check_controller(where, params["controller"])
+        _check_controller(where, params.get("gradient"))
     if "episode_seed" in params:
         first = _int(where, "params.episode_seed", params["episode_seed"])
         episodes = _int(where, "params.episodes", params["episodes"])
@@ -383,13 +370,7 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
     overrides = quick.get("params", {})
     if not isinstance(overrides, dict):
         raise TrackError(f"{where}: quick.params must be an object, got {overrides!r}")
-    if evaluation in PROTOCOLS:
-        _check_protocol_params(where, data, params, overrides)
-    elif set(overrides) - set(required):
-        bad = sorted(set(overrides) - set(required))
-        raise TrackError(f"{where}: quick.params overrides unknown params {bad!r}")
-    if evaluation == "outdoor":
-        _check_outdoor(where, data["world"], world_seeds[0], seed, params, overrides)
+    _check_protocol_params(where, data, params, overrides)
     return Track(
         name=data["name"],
         track_version=track_version,
@@ -407,49 +388,17 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
 
 
 def _check_controller(where: str, controller: Any) -> None:
-    """``params.controller`` must give every setting of the gradient controller, valid: a change
-    of the library's defaults must not change a track's scores."""
+    """``params.gradient`` must give every setting of the gradient controller: a change of the
+    library's defaults must not change a track's scores (the values are checked with the
+    protocol's Config)."""
     from sfa_gym.navigation.controllers import GradientSettings
 
     names = {f.name for f in dataclasses.fields(GradientSettings)}
     if not isinstance(controller, dict):
-        raise TrackError(f"{where}: params.controller must be an object, got {controller!r}")
-    missing, unknown = sorted(names - set(controller)), sorted(set(controller) - names)
+        raise TrackError(f"{where}: params.gradient must be an object, got {controller!r}")
+    missing = sorted(names - set(controller))
     if missing:
-        raise TrackError(f"{where}: missing field 'params.controller.{missing[0]}'")
-    if unknown:
-        raise TrackError(f"{where}: unknown field 'params.controller.{unknown[0]}'")
-    try:
-        GradientSettings(**controller).validate()
-    except (TypeError, ValueError) as err:
-        raise TrackError(f"{where}: params.controller: {err}") from None
-
-
-def _check_outdoor(
-    where: str,
-    world: str,
-    world_seed: int,
-    seed: int,
-    params: dict[str, Any],
-    overrides: dict[str, Any],
-) -> None:
-    """Refuse an outdoor track whose world is not the outdoor env's or whose parameters the
-    outdoor experiment refuses, at either size."""
-    import gymnasium as gym
-
-    from sfa_gym.leaderboard.outdoor import ENV_ID, outdoor_config
-
-    expected = gym.spec(ENV_ID).kwargs["world"]
-    if world != expected:
-        raise TrackError(
-            f"{where}: world {world!r}: an outdoor track renders in {ENV_ID}, whose world is "
-            f"{expected!r}"
-        )
-    for size, sized in (("params", params), ("quick.params", {**params, **overrides})):
-        try:
-            outdoor_config(sized, world_seed, seed)
-        except (TypeError, ValueError) as error:
-            raise TrackError(f"{where}: {size}: {error}") from None
+        raise TrackError(f"{where}: missing field 'params.gradient.{missing[0]}'")
 
 
 def load_track(path: str | os.PathLike[str]) -> Track:

@@ -91,7 +91,14 @@ from sfa_gym._files import check_format_header, read_npy_header, strict_json, wr
 from sfa_gym.capabilities import get_capabilities
 from sfa_gym.features import rotation_averaged_features
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "INTERPOLATIONS", "FeatureField", "world_hash"]
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "INTERPOLATIONS",
+    "FeatureField",
+    "fill_from_free",
+    "world_hash",
+]
 
 FORMAT = "sfa-gym-feature-field"
 FORMAT_VERSION = 1
@@ -224,6 +231,24 @@ def _cell_polynomials(
     return np.ascontiguousarray(coefficients.reshape((ny - 1) * (nx - 1), d1 * d1, k))
 
 
+def fill_from_free(
+    values: NDArray[np.float64],
+    free: NDArray[np.bool_],
+    xs: NDArray[np.float64],
+    ys: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """``values (ny, nx, k)`` of a field's nodes with each non-free node (``free (ny, nx)``
+    False) given the features of the nearest free node (in metres, nodes at ``xs``, ``ys``)."""
+    if free.all():
+        return values
+    from scipy.ndimage import distance_transform_edt
+
+    _, (iy, ix) = distance_transform_edt(
+        ~free, sampling=(ys[1] - ys[0], xs[1] - xs[0]), return_indices=True
+    )
+    return values[iy, ix]
+
+
 class FeatureField:
     """Features of a feature model over a grid of positions, interpolated between the nodes.
 
@@ -341,7 +366,6 @@ class FeatureField:
                 fitted for another size) or returns non-finite features; the message names the
                 value.
         """
-        from scipy.ndimage import distance_transform_edt
         from tqdm.auto import tqdm
 
         import sfa_gym
@@ -412,14 +436,8 @@ class FeatureField:
                 features[todo[s:e]] = f
                 bar.update(e - s)
         assert features is not None  # todo is never empty
-        values = features.reshape(len(ys), len(xs), -1)
         mask2 = mask.reshape(len(ys), len(xs))
-        if not mask2.all():
-            # each non-free node takes the features of the nearest free node (in metres)
-            _, (iy, ix) = distance_transform_edt(
-                ~mask2, sampling=(ys[1] - ys[0], xs[1] - xs[0]), return_indices=True
-            )
-            values = values[iy, ix]
+        values = fill_from_free(features.reshape(len(ys), len(xs), -1), mask2, xs, ys)
         metadata = {
             **description,
             "spacing": spacing,

@@ -1,12 +1,14 @@
-"""Pose sets the leaderboard renders through the shared cache in worlds with obstacles.
+"""Pose sets the navigation protocol renders (through a render cache) in worlds with obstacles.
 
-The env's ``reset`` refuses a pose where the rover does not fit (closer to an obstacle or an
-interior wall than its footprint radius), so a grid through an obstacle world cannot be recorded
+The env's ``reset`` refuses a pose where the rover does not fit
+(:meth:`~sfa_gym.sim.env.OmniRoverEnv.rover_fits`: closer to an obstacle or an interior wall
+than its footprint radius), so a grid through an obstacle world cannot be recorded
 as a whole. Both classes here are :class:`~sfa_gym.recording.drivers.GridPositions` to the
 recorder (one ``reset`` per pose) and keep only the poses where the rover fits:
 
-- :class:`FreeGridPositions`: the ``n x n`` training grid with its random yaws and visiting
-  order, minus the cells where the rover does not fit (the order of the others is kept);
+- :class:`FreeGridPositions`: the ``n x n`` training grid with its random yaws (or one yaw) and
+  visiting order, minus the cells where the rover does not fit (the order of the others is
+  kept);
 - :class:`FieldNodes`: the nodes of the feature-field grid of
   :meth:`~sfa_gym.navigation.field.FeatureField.build` (same spacing rule), facing yaw 0.
 
@@ -25,22 +27,16 @@ from numpy.typing import NDArray
 
 from sfa_gym.recording.drivers import GridPositions, env_attribute
 
-__all__ = ["FieldNodes", "FreeGridPositions", "field_axes", "rover_fits"]
+__all__ = ["FieldNodes", "FreeGridPositions", "field_axes"]
 
 
-def rover_fits(env: Any, points: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """``(n,)`` whether the rover fits at each of ``points`` ``(n, 2)`` (m): the condition the
-    env's ``reset`` checks (clearance from obstacles and interior walls larger than the rover's
-    footprint radius).
-
-    Raises:
-        TypeError: ``env`` has no ``layout`` or ``rover`` (not an OmniRoverEnv).
-    """
-    layout, rover = env_attribute(env, "layout"), env_attribute(env, "rover")
-    if layout is None or rover is None:
-        raise TypeError(f"env must be an OmniRoverEnv (with layout and rover), got {env!r}")
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    return np.asarray(layout.clearance(points) > rover.footprint_radius, dtype=bool)
+def _rover_fits(source: Any, points: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """``source``'s (an env, possibly wrapped) :meth:`~sfa_gym.sim.env.OmniRoverEnv.rover_fits`
+    of ``points (n, 2)``."""
+    fits = env_attribute(source, "rover_fits")
+    if fits is None:
+        raise TypeError(f"source must be an OmniRoverEnv (with rover_fits), got {source!r}")
+    return fits(points)
 
 
 def field_axes(
@@ -63,7 +59,15 @@ def field_axes(
 class FreeGridPositions(GridPositions):
     """The grid of :class:`~sfa_gym.recording.drivers.GridPositions` (``n x n`` cell centres,
     a random yaw per cell drawn with ``seed``, visiting ``order``) without the cells where the
-    rover does not fit. In a world without obstacles it is the whole grid, pose for pose."""
+    rover does not fit. In a world without obstacles it is the whole grid, pose for pose.
+
+    Args:
+        yaw: one heading (rad) for every pose instead of the random ones (None: random).
+        hilbert_axes: with ``order="hilbert"``, the grid axes the curve's coordinates follow:
+            ``"yx"`` (row, column: :class:`GridPositions`'s) or ``"xy"`` (the same curve
+            mirrored across the diagonal; ``sfa-gym navigate`` has always visited its
+            training grid so).
+    """
 
     def __init__(
         self,
@@ -71,18 +75,39 @@ class FreeGridPositions(GridPositions):
         *,
         seed: int = 0,
         order: Literal["raster", "serpentine", "hilbert"] = "raster",
+        yaw: float | None = None,
+        hilbert_axes: Literal["yx", "xy"] = "yx",
     ) -> None:
         super().__init__(n, seed=seed, order=order)
+        if yaw is not None and not (isinstance(yaw, int | float) and math.isfinite(yaw)):
+            raise ValueError(f"yaw must be None or a finite number of radians, got {yaw!r}")
+        if hilbert_axes not in ("yx", "xy"):
+            raise ValueError(f"hilbert_axes must be 'yx' or 'xy', got {hilbert_axes!r}")
+        self.yaw = None if yaw is None else float(yaw)
+        self.hilbert_axes = hilbert_axes
 
     def describe(self) -> dict[str, Any]:
-        """``{"type": "FreeGridPositions", n, seed, order}``."""
-        return {**super().describe(), "type": type(self).__name__}
+        """``{"type": "FreeGridPositions", n, seed, order}``, with ``yaw`` and
+        ``hilbert_axes`` when they are not the defaults."""
+        out = {**super().describe(), "type": type(self).__name__}
+        if self.yaw is not None:
+            out["yaw"] = self.yaw
+        if self.hilbert_axes != "yx":
+            out["hilbert_axes"] = self.hilbert_axes
+        return out
 
     def poses(self, source: Any) -> NDArray[np.float64]:
         """The free poses ``(m, 3)`` ``(x, y, yaw)`` of the grid in ``source`` (an env), in
         visiting order."""
+        from sfa_gym.recording.ordering import grid_order
+
         poses = super().poses(source)
-        return poses[rover_fits(source, poses[:, :2])]
+        if self.order == "hilbert" and self.hilbert_axes == "xy":
+            ranks = [np.unique(poses[:, a], return_inverse=True)[1] for a in (0, 1)]
+            poses = poses[grid_order(np.stack(ranks, axis=1).astype(np.int64), "hilbert")]
+        if self.yaw is not None:
+            poses[:, 2] = self.yaw
+        return poses[_rover_fits(source, poses[:, :2])]
 
 
 class FieldNodes(GridPositions):
@@ -114,7 +139,7 @@ class FieldNodes(GridPositions):
         xs, ys = field_axes(tuple(float(b) for b in bounds), self.spacing)
         gx, gy = np.meshgrid(xs, ys)
         nodes = np.stack([gx.ravel(), gy.ravel()], axis=1)
-        return nodes, rover_fits(source, nodes)
+        return nodes, _rover_fits(source, nodes)
 
     def poses(self, source: Any) -> NDArray[np.float64]:
         """The poses ``(m, 3)`` ``(x, y, 0.0)`` of the nodes where the rover fits."""

@@ -334,6 +334,14 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         """Drivable area ``(xmin, xmax, ymin, ymax)`` in metres, world frame."""
         return self.layout.bounds
 
+    def rover_fits(self, points: Any) -> NDArray[np.bool_]:
+        """``(n,)`` whether the rover fits at each of ``points`` ``(n, 2)`` (m): its clearance
+        from every obstacle and interior wall exceeds its footprint radius. ``reset`` refuses a
+        pose where it does not; the drivers, the navigation protocol and the feature fields keep
+        only the positions where it does."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        return np.asarray(self.layout.clearance(points) > self.rover.footprint_radius, dtype=bool)
+
     def grid_positions(self, n: int = 30) -> NDArray[np.float64]:
         """The ``n x n`` regular grid of positions over :attr:`arena_bounds` (cell centres).
 
@@ -365,7 +373,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     def _free_position(self, candidates: NDArray[np.float64]) -> tuple[float, float]:
         """The first candidate ``(x, y)`` where the rover clears every obstacle and interior
         wall (the last candidate if none does)."""
-        free = np.flatnonzero(self.layout.clearance(candidates) > self.rover.footprint_radius)
+        free = np.flatnonzero(self.rover_fits(candidates))
         x, y = candidates[free[0] if free.size else -1]
         return float(x), float(y)
 
@@ -419,8 +427,8 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
                 f'options["pose"] position ({x}, {y}) lies outside the drivable area '
                 f"x in [{xmin}, {xmax}], y in [{ymin}, {ymax}]"
             )
-        clearance = float(self.layout.clearance([(x, y)])[0])
-        if clearance <= self.rover.footprint_radius:
+        if not self.rover_fits([(x, y)])[0]:
+            clearance = float(self.layout.clearance([(x, y)])[0])
             raise ValueError(
                 f'options["pose"] position ({x}, {y}) is {clearance:.3f} m from an obstacle or '
                 f"interior wall; the rover needs more than its footprint radius "

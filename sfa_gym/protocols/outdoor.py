@@ -1,0 +1,495 @@
+"""The outdoor protocol: the paper's outdoor experiment in the outdoor world and its appearance
+tracks, one feature method at a time.
+
+The paper's section 3.2 (Metka, Franzius & Bauer-Wersing 2013) in ``sfa_gym/OmniRoverOutdoor-v0``
+(the ``paper_outdoor`` world through the mirror camera, the sun moving over the day, clouds,
+movers, auto-exposure and pixel noise, the camera on a sprung mast): one drive of
+``train_frames`` on a joystick-like grid that never enters a 1.5 x 1.5 m square in the
+south-west, then, without stopping the clock, ``test_frames`` that cross it
+(:class:`~sfa_gym.recording.outdoor_path.OutdoorPathDriver`, ``part="both"``). Appearance
+tracks (``conditions``) record the test path again under one change each, holding the others:
+``later`` (``later_hours`` later), ``overcast``, ``no_movers``, ``other_day``; ``after`` (the
+drive's test part, the paper's protocol) is always scored.
+
+Fitting (:func:`fit_outdoor`): a method with ``fit_rotations`` (hierarchical SFA) on every
+simulated rotation of every training frame in time order; a column statistic
+(``rotation_invariant``) once per panorama; any other on the evaluated rotation windows of every
+``fit_every``-th training frame (all views of 5900 panoramas 60 x 600 would be 76 GB). Each
+regression is fitted on the ``eval_rotations`` windows of every training frame, and a test
+frame's estimate is the mean over its windows. Scores: MAE in m and in % of the ``after`` test
+run's coordinate range, over all test frames, in the unvisited region and in the visited rest.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal, get_args
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sfa_gym._checks import check_int, check_positive_int, is_number
+from sfa_gym.localization.appearance import Normalisation, normalise_panoramas
+from sfa_gym.plugins import FeatureMethod, get_capabilities
+from sfa_gym.protocols.features import fit_method, full_width, invariance_entry, view_features
+from sfa_gym.protocols.settings import check_choice
+from sfa_gym.rotation import Rotation, check_step, spread_indices
+
+__all__ = [
+    "CONDITIONS",
+    "ENV_ID",
+    "Config",
+    "OutdoorData",
+    "Scores",
+    "condition_scores",
+    "fit_outdoor",
+    "interleave",
+    "load_data",
+    "requests",
+    "score",
+    "score_on",
+]
+
+ENV_ID = "sfa_gym/OmniRoverOutdoor-v0"
+"""The env every outdoor run is rendered in."""
+Condition = Literal["after", "later", "overcast", "no_movers", "other_day"]
+CONDITIONS: tuple[str, ...] = get_args(Condition)
+"""The test conditions (see the module docstring)."""
+Camera = Literal["mirror", "cylindrical"]
+
+
+@dataclass(frozen=True)
+class Config:
+    """Settings of the outdoor protocol (defaults: the paper's)."""
+
+    panorama: tuple[int, int] | None = None
+    """(height, width) of the panoramas in pixels (quick runs); None: the paper's 60 x 600"""
+    train_frames: int = 5900
+    """frames of the training run (the paper: 5900)"""
+    test_frames: int = 2800
+    """frames of the test run (the paper: 2800)"""
+    frame_dt: float = 0.1
+    """seconds between frames (the env's control period); longer periods give short test
+    runs over the same paths"""
+    spacing: float = 0.5
+    """training run: distance between the grid's lanes, m (larger for short runs)"""
+    test_spacing: float = 1.0
+    """test run: distance between the grid's lanes, m"""
+    start_hour: float = 10.0
+    """time of day at which the training run starts, hours"""
+    conditions: tuple[Condition, ...] = ("after",)
+    """test conditions scored (appearance tracks): after, later, overcast, no_movers,
+    other_day; "after" is scored always, a track's score is the mean over these"""
+    later_hours: float = 4.0
+    """the "later" test run starts this many hours after the "after" one"""
+    dynamics: bool = True
+    """the world's dynamics (sun, clouds, movers); False: a static world (ablation)"""
+    sensor: bool = True
+    """the camera's auto-exposure and pixel noise"""
+    vibration: bool = True
+    """the sprung camera mast (False: a rigid one)"""
+    camera: Camera = "mirror"
+    """the mirror camera (unwarped) or the ideal cylindrical one"""
+    step: int = 5
+    """simulated rotation step, columns (must divide the panorama width)"""
+    eval_rotations: int | None = 12
+    """evenly spread rotation windows per frame (12: every 30 degrees) whose features every
+    regression is fitted on and averages over; None: all (120 at 600 px: slow for plug-ins
+    that transform every view; SFA's estimate over all 120 is reported beside)"""
+    normalise: Normalisation = "none"
+    """input normalisation of every panorama, for every method (sfa_gym.localization.appearance:
+    none, grey_world, log_gradient)"""
+    train_also: tuple[float, ...] = ()
+    """levers: the training path driven again, starting this many hours after start_hour, each
+    such run interleaved frame by frame with the training run (the appearance of a place then
+    changes faster than the place); every method trains on all of them"""
+    fit_every: int = 5
+    """plug-ins without a rotation shortcut are fitted on every n-th training frame"""
+    seed: int = 0
+    """seed of the env resets (sensor noise) and of the path planner"""
+
+    @property
+    def rotation(self) -> Rotation:
+        """The simulated rotation every method is trained and evaluated on."""
+        return Rotation(step=self.step)
+
+    def validate(self) -> None:
+        """Raise ValueError (or TypeError) naming the first bad setting."""
+        check_int("seed", self.seed)
+        for name in ("train_frames", "test_frames"):
+            if check_positive_int(name, getattr(self, name)) < 10:
+                raise ValueError(f"{name} must be >= 10, got {getattr(self, name)!r}")
+        for name in ("step", "fit_every"):
+            check_positive_int(name, getattr(self, name))
+        if self.eval_rotations is not None:
+            check_positive_int("eval_rotations", self.eval_rotations)
+        for name in ("frame_dt", "spacing", "test_spacing"):
+            value = getattr(self, name)
+            if not is_number(value) or not math.isfinite(value) or value <= 0:
+                raise ValueError(f"{name} must be a positive number of metres, got {value!r}")
+        for name in ("start_hour", "later_hours"):
+            value = getattr(self, name)
+            if not is_number(value) or not math.isfinite(value):
+                raise ValueError(f"{name} must be a finite number of hours, got {value!r}")
+        if not 0.0 <= self.start_hour < 24.0:
+            raise ValueError(f"start_hour must lie in [0, 24) hours, got {self.start_hour!r}")
+        if not isinstance(self.conditions, tuple | list) or not self.conditions:
+            raise ValueError(f"conditions must be a non-empty tuple, got {self.conditions!r}")
+        for condition in self.conditions:
+            check_choice("conditions", condition, Condition)
+        if len(set(self.conditions)) != len(self.conditions):
+            raise ValueError(f"conditions {list(self.conditions)} repeats a condition")
+        if not self.dynamics and set(self.conditions) - {"after"}:
+            raise ValueError(
+                f"conditions {sorted(set(self.conditions) - {'after'})} change the dynamics; "
+                "they need dynamics=True"
+            )
+        for name in ("dynamics", "sensor", "vibration"):
+            if not isinstance(getattr(self, name), bool):
+                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        check_choice("camera", self.camera, Camera)
+        check_choice("normalise", self.normalise, Normalisation)
+        if not isinstance(self.train_also, tuple | list) or not all(
+            is_number(h) and math.isfinite(h) and h != 0 for h in self.train_also
+        ):
+            raise ValueError(
+                f"train_also must be a tuple of non-zero hours, got {self.train_also!r}"
+            )
+        if self.train_also and not self.dynamics:
+            raise ValueError("train_also drives at other times of day: it needs dynamics=True")
+        if self.panorama is not None:
+            if not isinstance(self.panorama, tuple | list) or len(self.panorama) != 2:
+                raise ValueError(
+                    f"panorama must be None or (height, width) in pixels, got {self.panorama!r}"
+                )
+            for value in self.panorama:
+                check_positive_int("panorama", value)
+        check_step(600 if self.panorama is None else self.panorama[1], self.step)
+
+    def driver(self, part: Literal["train", "test", "both"]) -> Any:
+        """The driver of the whole drive (``"both"``) or of one of its paths."""
+        from sfa_gym.recording.outdoor_path import OutdoorPathDriver
+
+        return OutdoorPathDriver(
+            part,
+            train_frames=self.train_frames,
+            test_frames=self.test_frames,
+            spacing=self.spacing,
+            test_spacing=self.test_spacing,
+        )
+
+    def env_kwargs(self, condition: Condition, world_seed: int) -> dict[str, Any]:
+        """Keyword arguments of ``gym.make(ENV_ID)`` for the drive (``"after"``: the whole
+        drive, starting at ``start_hour``) or for the test run under ``condition``."""
+        kwargs: dict[str, Any] = {
+            "world_seed": world_seed,
+            "control_dt": self.frame_dt,
+            "camera": self.camera,
+            "sensor": self.sensor,
+            "rover": "outdoor" if self.vibration else "default",
+        }
+        if self.camera == "cylindrical":
+            kwargs["mirror"] = None
+        if self.panorama is not None:
+            from sfa_gym.sim.camera import PanoramaSpec
+
+            height, width = self.panorama
+            kwargs["panorama"] = PanoramaSpec(width=int(width), height=int(height))
+        if not self.dynamics:
+            return {**kwargs, "dynamics": False}
+        if condition == "after":
+            return {**kwargs, "start_hour": self.start_hour}
+        # the test runs start when the "after" part does: the training run's frames later
+        hour = (self.start_hour + (self.train_frames * self.frame_dt) / 3600.0) % 24.0
+        if condition == "later":
+            return {**kwargs, "start_hour": (hour + self.later_hours) % 24.0}
+        if condition == "no_movers":
+            return {**kwargs, "start_hour": hour, "movers": False}
+        from sfa_gym.sim.worlds import load_world_spec
+
+        declared = load_world_spec("paper_outdoor").dynamics
+        change = {"overcast": {"overcast": 1.0}, "other_day": {"day": declared.day + 1}}
+        spec = dataclasses.replace(declared, **change[condition])
+        return {**kwargs, "start_hour": hour, "dynamics": spec}
+
+
+def _request(env_kwargs: dict[str, Any], driver: Any, seed: int) -> Any:
+    import gymnasium as gym
+
+    from sfa_gym.recording.cache import RunRequest, env_defaults
+
+    kwargs = dict(env_kwargs)
+    # world seed and panorama are fields of the request (the cache passes them on)
+    world_seed = kwargs.pop("world_seed")
+    panorama = kwargs.pop("panorama", None) or env_defaults(ENV_ID)["panorama"]
+    return RunRequest(
+        world=gym.spec(ENV_ID).kwargs["world"],
+        world_seed=world_seed,
+        panorama=(panorama.height, panorama.width),
+        driver=driver,
+        seed=seed,
+        env_id=ENV_ID,
+        env_kwargs=kwargs,
+    )
+
+
+def requests(config: Config, world_seed: int) -> dict[str, Any]:
+    """The runs of one world seed, by name: ``"drive"`` (training and ``after`` frames), one
+    per other condition, and ``"train_<hours>h"`` per hour of ``train_also``."""
+    drive = config.env_kwargs("after", world_seed)
+    out = {"drive": _request(drive, config.driver("both"), config.seed)}
+    for condition in config.conditions:
+        if condition != "after":
+            kwargs = config.env_kwargs(condition, world_seed)
+            out[condition] = _request(kwargs, config.driver("test"), config.seed)
+    for hours in config.train_also:
+        kwargs = config.env_kwargs("after", world_seed)
+        kwargs["start_hour"] = (config.start_hour + hours) % 24.0
+        out[f"train_{hours:+g}h"] = _request(kwargs, config.driver("train"), config.seed)
+    return out
+
+
+@dataclass
+class TestSet:
+    """The test frames of one condition: panoramas, positions, times and the in-region mask."""
+
+    panoramas: Any
+    xy: NDArray[np.float64]
+    time: NDArray[np.float64]
+    inside: NDArray[np.bool_]
+
+
+def interleave(arrays: Sequence[NDArray[Any]]) -> NDArray[Any]:
+    """Frame 0 of every array, then frame 1 of every array, ...: ``R`` arrays ``(n, ...)`` ->
+    ``(n * R, ...)``."""
+    stacked = np.stack(arrays, axis=1)
+    return stacked.reshape(-1, *stacked.shape[2:])
+
+
+@dataclass
+class OutdoorData:
+    """The runs of one world seed, read once for every method scored on them.
+
+    Attributes:
+        runs: the runs by name (see :func:`requests`).
+        requests: the requests they were asked for, by name.
+        region: the unvisited south-west rectangle ``(xmin, xmax, ymin, ymax)``.
+        tests: the test frames by condition (``"after"`` first), normalised.
+        train_pan, train_xy: the training panoramas (normalised, ``train_also`` runs
+            interleaved) and their positions.
+        windows: the evaluated rotation windows.
+    """
+
+    runs: dict[str, Any]
+    requests: dict[str, Any]
+    region: tuple[float, ...]
+    tests: dict[str, TestSet]
+    train_pan: NDArray[np.uint8]
+    train_xy: NDArray[np.float64]
+    windows: NDArray[np.intp]
+
+    @property
+    def test_range(self) -> NDArray[np.float64]:
+        """The coordinate range of the ``after`` test run: the MAE's 100 %."""
+        xy = self.tests["after"].xy
+        return xy.max(axis=0) - xy.min(axis=0)
+
+
+def load_data(config: Config, world_seed: int, runs: Any) -> OutdoorData:
+    """Read (``runs.get``, rendering what is missing) and cut the runs of ``world_seed``."""
+    from sfa_gym.geometry import in_rectangle
+    from sfa_gym.recording.outdoor_path import south_west
+
+    config.validate()
+    asked = requests(config, world_seed)
+    got = {name: runs.get(request) for name, request in asked.items()}
+    drive, n = got["drive"], config.train_frames
+    if len(drive) != n + config.test_frames:
+        raise ValueError(
+            f"the drive has {len(drive)} frames, expected {n} + {config.test_frames}: "
+            f"it ended early ({drive.metadata.get('end_reason')})"
+        )
+    region = tuple(south_west(drive.metadata["arena_bounds"]))
+    tests = {}
+    for condition in dict.fromkeys(("after", *config.conditions)):
+        run = got.get(condition)
+        if run is None:
+            panoramas, poses, time = drive.panoramas[n:], drive.poses[n:], drive.time[n:]
+        else:
+            panoramas, poses, time = run.panoramas[:], run.poses, run.time
+        xy = np.asarray(poses[:, :2], dtype=np.float64)
+        panoramas = normalise_panoramas(np.asarray(panoramas), config.normalise)
+        tests[condition] = TestSet(panoramas, xy, time, in_rectangle(xy, region))
+    panoramas = [np.asarray(drive.panoramas[:n])]
+    positions = [np.asarray(drive.positions[:n], dtype=np.float64)]
+    for hours in config.train_also:
+        run = got[f"train_{hours:+g}h"]
+        panoramas.append(np.asarray(run.panoramas[:]))
+        positions.append(np.asarray(run.positions, dtype=np.float64))
+    train_pan = panoramas[0] if len(panoramas) == 1 else interleave(panoramas)
+    train_xy = positions[0] if len(positions) == 1 else interleave(positions)
+    train_pan = normalise_panoramas(train_pan, config.normalise)
+    windows = spread_indices(config.rotation.n_views(train_pan.shape[2]), config.eval_rotations)
+    return OutdoorData(got, asked, region, tests, train_pan, train_xy, windows)
+
+
+def condition_scores(estimates: NDArray, test: TestSet, test_range: NDArray) -> dict[str, Any]:
+    """MAE of ``estimates (M, 2)`` over ``all`` test frames, the ``unvisited`` region and the
+    ``visited`` rest, in m and in % of ``test_range``."""
+    from sfa_gym.localization import mae
+    from sfa_gym.localization.metrics import mae_dict
+
+    entry: dict[str, Any] = {"all": mae_dict(mae(estimates, test.xy, coordinate_range=test_range))}
+    for part, where in (("unvisited", test.inside), ("visited", ~test.inside)):
+        entry[part] = (
+            mae_dict(mae(estimates[where], test.xy[where], coordinate_range=test_range))
+            if where.any()
+            else None
+        )
+    return entry
+
+
+def fit_outdoor(method: FeatureMethod, config: Config, data: OutdoorData) -> FeatureMethod:
+    """``method`` fitted on the training frames (see the module docstring)."""
+    rotation, train_pan = config.rotation, data.train_pan
+    capabilities = get_capabilities(method)
+    if capabilities.fit_rotations or (
+        capabilities.rotation_invariant and full_width(rotation, train_pan)
+    ):
+        return fit_method(method, train_pan, rotation)
+    frames = np.arange(0, len(train_pan), config.fit_every)
+    views = rotation.views(train_pan[frames], data.windows)[0]
+    return method.fit(views.reshape(-1, *views.shape[2:]))
+
+
+@dataclass
+class Scores:
+    """What scoring one method found.
+
+    Attributes:
+        method: the fitted method.
+        regressions: per regression, per condition, the MAE over ``all`` test frames, the
+            ``unvisited`` region and the ``visited`` rest (:func:`condition_scores`).
+        estimates: per regression, per condition, the estimates ``(M, 2)`` (m).
+        invariance: ``eta_r``, ``eta_phi`` and ``n_features`` of the training features.
+        all_windows: with ``all_windows=True``: the linear regression's ``after`` scores with
+            every rotation window (what the fewer windows cost), else None.
+        data: the runs it was scored on.
+    """
+
+    method: FeatureMethod
+    regressions: dict[str, dict[str, Any]]
+    estimates: dict[str, dict[str, NDArray[np.float64]]]
+    invariance: dict[str, Any]
+    data: OutdoorData
+    all_windows: dict[str, Any] | None = None
+    conditions: tuple[str, ...] = field(default=("after",))
+
+    def entry(self) -> dict[str, Any]:
+        """The method's entry of ``results.json``: invariance, then one entry per regression
+        (and ``all_windows``)."""
+        out = {**self.invariance, **self.regressions}
+        if self.all_windows is not None:
+            out["all_windows"] = {"linear": {"after": self.all_windows}}
+        return out
+
+    def task_scores(self) -> dict[str, Any]:
+        """A leaderboard task's scores, of the first regression (JSON types): ``score`` (the
+        mean over ``conditions`` of the all-frames MAE %), ``parts`` (per scored condition, and
+        ``unvisited``: the ``after`` run inside the south-west region), ``conditions``,
+        ``regressor``, ``n_features``, ``frames`` and the cache keys of the runs."""
+        regressor, found = next(iter(self.regressions.items()))
+
+        def percent(entry: Mapping[str, Any] | None) -> float | None:
+            return None if entry is None else float(np.mean(entry["mae_percent"]))
+
+        parts: dict[str, float | None] = {c: percent(e["all"]) for c, e in found.items()}
+        parts["unvisited"] = percent(found["after"]["unvisited"])
+        data = self.data
+        return {
+            "score": float(np.mean([parts[c] for c in self.conditions])),
+            "parts": parts,
+            "conditions": found,
+            "regressor": regressor,
+            "n_features": int(self.invariance["n_features"]),
+            "frames": {
+                "train": len(data.runs["drive"]) - len(data.tests["after"].xy),
+                "test": len(data.tests["after"].xy),
+                "unvisited": int(data.tests["after"].inside.sum()),
+                "windows": len(data.windows),
+            },
+            "renders": {name: request.key() for name, request in data.requests.items()},
+        }
+
+
+def score_on(
+    config: Config,
+    method: FeatureMethod,
+    data: OutdoorData,
+    regressors: Sequence[str] | None = None,
+    all_windows: bool = False,
+    progress: bool = False,
+) -> Scores:
+    """Fit ``method`` on ``data`` and score each of ``regressors`` (default: the method's
+    ``regressor``, else linear) under every condition; ``all_windows``: also the linear
+    regression on every rotation window (cheap for a method with ``transform_rotations``)."""
+    from sfa_gym.localization import fit_predict, make_regressor, predict_locations
+
+    if regressors is None:
+        regressors = (get_capabilities(method).regressor,)
+    rotation, windows, name = config.rotation, data.windows, method.name
+    fitted = fit_outdoor(method, config, data)
+    # all windows of the training and "after" frames for the all-windows entry; the evaluated
+    # ones are picked from them (the rotation shortcut computes every window anyway)
+    every = None if all_windows else windows
+    f_train = view_features(fitted, data.train_pan, rotation, every, f"{name} train", progress)
+    f_tests = {
+        c: view_features(fitted, t.panoramas, rotation, every, f"{name} {c}", progress)
+        for c, t in data.tests.items()
+    }
+    whole = None
+    if all_windows:
+        found = fit_predict(make_regressor("linear"), f_train, data.train_xy, f_tests["after"])
+        whole = condition_scores(found, data.tests["after"], data.test_range)
+        f_train = f_train[:, windows]
+        f_tests = {c: f[:, windows] for c, f in f_tests.items()}
+    n_views = f_train.shape[1]
+    regressions: dict[str, dict[str, Any]] = {}
+    estimates: dict[str, dict[str, NDArray[np.float64]]] = {}
+    for reg in dict.fromkeys(regressors):
+        regressor = make_regressor(reg)
+        # every window of a training frame is a sample labelled with the frame's position
+        labels = np.repeat(data.train_xy, n_views, 0)
+        regressor.fit(f_train.reshape(-1, f_train.shape[2]), labels)
+        regressions[reg], estimates[reg] = {}, {}
+        for c, test in data.tests.items():
+            estimates[reg][c] = predict_locations(regressor, f_tests[c])
+            regressions[reg][c] = condition_scores(estimates[reg][c], test, data.test_range)
+    return Scores(
+        method=fitted,
+        regressions=regressions,
+        estimates=estimates,
+        invariance=invariance_entry(f_train),
+        data=data,
+        all_windows=whole,
+        conditions=tuple(config.conditions),
+    )
+
+
+def score(
+    config: Config,
+    method: FeatureMethod,
+    world_seed: int,
+    runs: Any,
+    *,
+    regressors: Sequence[str] | None = None,
+    progress: bool = False,
+) -> Scores:
+    """Fit ``method`` on the training frames of ``world_seed`` and score each of ``regressors``
+    (default: the method's own ``regressor``) under every condition; ``runs`` gives the runs
+    (:class:`~sfa_gym.protocols.RunSource`). Writes no files."""
+    data = load_data(config, world_seed, runs)
+    return score_on(config, method, data, regressors, progress=progress)
