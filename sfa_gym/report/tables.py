@@ -33,6 +33,7 @@ __all__ = [
     "regenerate",
     "render",
     "repository_root",
+    "table_specs",
     "update_pages",
 ]
 
@@ -89,6 +90,11 @@ def repository_root() -> Path:
 def default_pages(root: Path) -> list[Path]:
     """README.md and every markdown page under docs/."""
     return [root / "README.md", *sorted((root / "docs").rglob("*.md"))]
+
+
+def table_specs(text: str) -> list[str]:
+    """The spec (``GENERATOR FILE ... NAME=VALUE ...``) of every generated table of ``text``."""
+    return [match["spec"] for match in _BLOCK.finditer(text)]
 
 
 def render(spec: str, root: Path) -> str:
