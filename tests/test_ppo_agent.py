@@ -1,7 +1,7 @@
 """The PPO navigation agent (baselines/agents/ppo_nav.py): it trains on a real feature field and
 on rendered panoramas, writes its learning curve and checkpoint, resumes, and refuses bad
 arguments. Small budgets: these check the machinery, not the agent's skill (the sweep in
-eval/ppo_nav_sweep.py measures that)."""
+studies/ppo_nav_sweep.py measures that)."""
 
 from __future__ import annotations
 

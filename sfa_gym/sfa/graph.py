@@ -14,22 +14,68 @@ slowest outputs barely change across it.
 :class:`WalkGraphEmbedding` computes these functions on the training places and extends them to a
 new input by a Gaussian-weighted, locally linear fit over its nearest training places in the
 space of the input features (say, the network's rotation-averaged slow features): the network
-recognises the place, the graph says where it lies on the walk. Numpy and scipy only.
+recognises the place, the graph says where it lies on the walk. :func:`laplacian_eigenmaps`
+solves the eigenproblem of any such graph (also a grid of free cells, for the slow features of a
+random walk confined to them). Numpy and scipy only.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
-from scipy.sparse import coo_matrix
+from scipy.sparse import coo_matrix, diags, issparse
+from scipy.sparse.linalg import eigsh
 from scipy.spatial import cKDTree
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
 from sfa_gym._checks import check_positive, check_positive_int
 
-__all__ = ["WalkGraphEmbedding"]
+__all__ = ["WalkGraphEmbedding", "laplacian_eigenmaps"]
+
+
+def laplacian_eigenmaps(adjacency: Any, n_components: int) -> tuple[NDArray, NDArray]:
+    """The ``n_components`` slowest non-constant solutions of ``(D - A) v = lambda D v`` of a
+    connected graph with symmetric, non-negative edge weights ``A`` (``D`` their row sums).
+
+    Args:
+        adjacency: ``(n, n)`` ``A``, a dense array (solved exactly, for a few thousand nodes at
+            most) or a scipy sparse matrix (solved by shift-invert Lanczos with a fixed start
+            vector, so the same graph gives the same vectors: a grid of tens of thousands of
+            cells).
+        n_components: eigenvectors kept, after the constant one.
+
+    Returns:
+        ``(vectors (n, n_components), eigenvalues (n_components,))``, ascending, each vector
+        scaled to ``v^T D v = 1`` and signed so that its largest entry is positive.
+    """
+    n = adjacency.shape[0]
+    if n < n_components + 2:
+        raise ValueError(
+            f"the graph has {n} nodes; n_components={n_components} needs at least "
+            f"{n_components + 2}"
+        )
+    if issparse(adjacency):
+        a = adjacency.tocsc()
+        degree = diags(np.asarray(a.sum(axis=1)).ravel()).tocsc()
+        # shift-invert just below 0 finds the smallest; a fixed start vector keeps it
+        # deterministic
+        values, vectors = eigsh(
+            degree - a, k=n_components + 1, M=degree, sigma=-1e-6, which="LM", v0=np.ones(n)
+        )
+        order = np.argsort(values)[1:]
+        values, vectors = values[order], vectors[:, order]
+    else:
+        degree = np.asarray(adjacency).sum(axis=1)
+        values, vectors = scipy.linalg.eigh(
+            np.diag(degree) - adjacency, np.diag(degree), subset_by_index=[1, n_components]
+        )
+    # eigenvectors have no sign: make each one's largest entry positive (same fit, same features)
+    vectors *= np.sign(vectors[np.abs(vectors).argmax(axis=0), np.arange(vectors.shape[1])])
+    return vectors, values
 
 
 class WalkGraphEmbedding(TransformerMixin, BaseEstimator):
@@ -116,12 +162,7 @@ class WalkGraphEmbedding(TransformerMixin, BaseEstimator):
                 f"the walk never moves to or from {len(missing)} of the {n} places of X "
                 f"(place {missing[0]} first): every place must be on the walk"
             )
-        values, vectors = scipy.linalg.eigh(
-            np.diag(degree) - a, np.diag(degree), subset_by_index=[1, self.n_components]
-        )
-        # eigenvectors have no sign: make each one's largest entry positive (same fit, same
-        # features)
-        vectors *= np.sign(vectors[np.abs(vectors).argmax(axis=0), np.arange(vectors.shape[1])])
+        vectors, values = laplacian_eigenmaps(a, self.n_components)
         self.eigenvalues_ = values
         # unit variance over the visits: v^T D v = 1 counts every place as often as it is left
         self.embedding_ = vectors * np.sqrt(degree.sum())

@@ -27,7 +27,7 @@ from sfa_gym.sim.camera.projection import (  # noqa: E402
     heading_phases,
 )
 
-__all__ = ["OmniCamera"]
+__all__ = ["OmniCamera", "headlight_to_eye", "sample_nearest"]
 
 
 def _smooth_skyboxes(model: mujoco.MjModel) -> list[int]:
@@ -57,7 +57,7 @@ def _smooth_skyboxes(model: mujoco.MjModel) -> list[int]:
     return ids
 
 
-def _sample_nearest(con: mujoco.MjrContext, textures: list[int]) -> None:
+def sample_nearest(con: mujoco.MjrContext, textures: list[int]) -> None:
     """Make the current context sample the given skybox textures from their nearest texel."""
     if not textures:
         return
@@ -71,7 +71,7 @@ def _sample_nearest(con: mujoco.MjrContext, textures: list[int]) -> None:
     GL.glBindTexture(GL.GL_TEXTURE_CUBE_MAP, 0)
 
 
-def _headlight_to_eye(scn: mujoco.MjvScene) -> None:
+def headlight_to_eye(scn: mujoco.MjvScene) -> None:
     """Turn the scene's headlight into a light at the eye that shines in all directions.
 
     A headlight shines along the axis of whichever view renders, so a wall at the border of
@@ -191,6 +191,12 @@ class OmniCamera:
         self._cull_cache: tuple[int, list[Any], NDArray[np.intp], list[int]] | None = None
         self._smooth_skies = _smooth_skyboxes(model)
 
+    @property
+    def smooth_skies(self) -> list[int]:
+        """Ids of the skybox textures this camera samples from their nearest texel
+        (:func:`sample_nearest`); empty where the GL state could not be set."""
+        return list(self._smooth_skies)
+
     # -- GL resources ---------------------------------------------------------------------------
 
     def _ensure_context(self) -> None:
@@ -222,7 +228,7 @@ class OmniCamera:
                 f"gave {con.offWidth}x{con.offHeight}; use a smaller width/height/supersample"
             )
         try:
-            _sample_nearest(con, self._smooth_skies)
+            sample_nearest(con, self._smooth_skies)
         except Exception:
             # Texture state is an optimisation: without it, MuJoCo's filtering stays (slower,
             # within a grey level of the same pixels).
@@ -270,7 +276,7 @@ class OmniCamera:
     # -- rendering ------------------------------------------------------------------------------
 
     def _headlight_at_eye(self) -> None:
-        _headlight_to_eye(self._scene)
+        headlight_to_eye(self._scene)
 
     def _cullable(self) -> tuple[list[Any], NDArray[np.intp], list[int]]:
         """The scene's model geoms with a finite bounding sphere: (mjvGeoms, geom ids, types).

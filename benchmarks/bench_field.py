@@ -29,10 +29,12 @@ gives, what does it cost to build, and how fast is a query? In one process:
    and a vectorised query of 10000 points, per point, in microseconds; one physics-only env
    step (``mj_step`` over a control period) for scale: target >= 2000 steps/s per core.
 
+Backs docs/navigation.md (feature fields).
+
 Usage (from the repository root)::
 
-    .venv/bin/python eval/bench_field.py            # full, ~4 min on 2 cores
-    .venv/bin/python eval/bench_field.py --quick    # smoke run, ~40 s
+    .venv/bin/python -m benchmarks.bench_field            # full, ~4 min on 2 cores
+    .venv/bin/python -m benchmarks.bench_field --quick    # smoke run, ~40 s
 
 Writes ``published/benchmarks/field.json`` (``--json``) and prints a table.
 """
@@ -40,9 +42,9 @@ Writes ``published/benchmarks/field.json`` (``--json``) and prints a table.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -51,17 +53,14 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script from a checkout
-    sys.path.insert(0, str(ROOT))
+from sfa_gym.experiments.grid import GridExperiment
+from sfa_gym.features import rotation_averaged_features
+from sfa_gym.navigation.field import INTERPOLATIONS, FeatureField
+from sfa_gym.protocols.settings import SFASettings
+from sfa_gym.recording.grid_training import grid_training_panoramas
+from sfa_gym.sim.env import OmniRoverEnv
 
-from sfa_gym._files import write_json_atomic  # noqa: E402
-from sfa_gym.experiments.grid import GridExperiment, select_positions  # noqa: E402
-from sfa_gym.features import rotation_averaged_features  # noqa: E402
-from sfa_gym.navigation.field import INTERPOLATIONS, FeatureField  # noqa: E402
-from sfa_gym.protocols.settings import SFASettings  # noqa: E402
-from sfa_gym.recording.drivers import GridPositions  # noqa: E402
-from sfa_gym.sim.env import OmniRoverEnv  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 TARGETS = {"steps_per_s_per_core_min": 2000.0, "query_us_max": 100.0}
 
@@ -71,15 +70,13 @@ def render(env: OmniRoverEnv, x: float, y: float, yaw: float) -> np.ndarray:
 
 
 def train_model(settings: SFASettings, grid: int, n_train: int) -> tuple[OmniRoverEnv, Any, dict]:
-    """The network trained on the grid protocol's training positions (as
-    ``eval/bench_equivariance.py`` trains it); returns the env, the model and its description."""
+    """The network trained on the grid protocol's training positions; returns the env, the
+    model and its description."""
     env = OmniRoverEnv()
     config = GridExperiment(
         grid=grid, n_train=n_train, n_test=min(196, grid * grid - n_train), sfa=settings
     )
-    poses = GridPositions(n=grid, seed=config.seed, order=config.order).poses(env)
-    train, _ = select_positions(config, len(poses))
-    panoramas = np.stack([render(env, *poses[i]) for i in tqdm(train, desc="training grid")])
+    panoramas = grid_training_panoramas(env, config)
     t0 = time.perf_counter()
     model = settings.make_model(*panoramas.shape[1:3]).fit_rotations(panoramas, step=config.step)
     info = {
@@ -373,7 +370,7 @@ def main(argv: list[str] | None = None) -> int:
             f"to the heading mean: {results['closest_to_rendered'][spacing]}"
         )
     args.json.parent.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(args.json, results)
+    args.json.write_text(json.dumps(results, indent=1, allow_nan=False))
     print(f"results: {args.json}")
     return 0
 

@@ -1,4 +1,4 @@
-"""Benchmark: the slow-feature-gradient controller under several settings, over world seeds and
+"""Study: the slow-feature-gradient controller under several settings, over world seeds and
 episode sets.
 
 A controller setting that helps on the 100 episodes of one world may only have moved the weave's
@@ -8,48 +8,68 @@ field of every ``sfa-gym navigate`` output folder given (one per world seed; the
 nothing is rendered) and on every episode set, and prints success and SPL (all pairs, interior
 pairs) per (world, set) and their mean; ``--json`` writes them.
 
+Backs docs/navigation.md (the controller's settings, the search out of stalls, the graph
+features); its result files are ``published/studies/nav_controller_settings*.json``,
+``nav_graph_features.json``, ``nav_hilbert_sfa*.json`` and ``nav_walk_sfa*.json`` (the command
+behind each is in ``published/README.md``).
+
 Usage (from the repository root; the folders from ``sfa-gym navigate --out results/nav
 --world-seed 0``, and so on)::
 
-    .venv/bin/python eval/nav_controller_settings.py --nav results/nav results/nav_w1 \
+    .venv/bin/python -m studies.nav_controller_settings --nav results/nav results/nav_w1 \
         results/nav_w2 --sets 1000 2000 --episodes 200 \
         --variant 'before={"memory": 0.5, "window": 1.5, "probe_leg": 0}' --variant default={}
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script from a checkout
-    sys.path.insert(0, str(ROOT))
+import gymnasium as gym
+import numpy as np
+import tyro
 
-import gymnasium as gym  # noqa: E402
-import numpy as np  # noqa: E402
-from tqdm import tqdm  # noqa: E402
+import sfa_gym  # noqa: F401  (registers the ids)
+from sfa_gym.navigation.controllers import GradientController, GradientSettings
+from sfa_gym.navigation.evaluate import run_episodes, summarize
+from sfa_gym.navigation.field import FeatureField
 
-import sfa_gym  # noqa: E402, F401  (registers the ids)
-from sfa_gym._files import write_json_atomic  # noqa: E402
-from sfa_gym.navigation.controllers import GradientController, GradientSettings  # noqa: E402
-from sfa_gym.navigation.evaluate import run_episode, summarize  # noqa: E402
-from sfa_gym.navigation.field import FeatureField  # noqa: E402
+
+@dataclass(frozen=True)
+class Args:
+    nav: tuple[Path, ...]
+    """sfa-gym navigate output folders (with field_<features>.npz and results.json)"""
+    variant: Annotated[tuple[str, ...], tyro.conf.UseAppendAction]
+    """name=JSON of GradientSettings fields, e.g. default={}; repeat for more variants"""
+    features: str = "sfa"
+    """the field the controller runs on: field_<features>.npz of each folder (sfa_graph after
+    --train-order walk)"""
+    sets: tuple[int, ...] = (1000, 2000)
+    """first episode seed of each episode set"""
+    episodes: int = 200
+    """episodes per set"""
+    json: Path | None = None
+    """write the figures here"""
 
 
 def parse_variant(text: str) -> tuple[str, GradientSettings]:
-    """``name={"field": value, ...}`` -> (name, settings)."""
+    """``name={"field": value, ...}`` -> (name, settings).
+
+    Raises:
+        ValueError: not ``name=JSON``, or the JSON is not valid GradientSettings fields.
+    """
     name, sep, spec = text.partition("=")
     if not sep or not name:
-        raise argparse.ArgumentTypeError(f"a variant is name=JSON, got {text!r}")
+        raise ValueError(f"a variant is name=JSON, got {text!r}")
     try:
         fields = json.loads(spec)
         settings = GradientSettings(**fields)
         settings.validate()
     except (json.JSONDecodeError, TypeError, ValueError) as err:
-        raise argparse.ArgumentTypeError(f"variant {name!r}: {err}") from None
+        raise ValueError(f"variant {name!r}: {err}") from None
     return name, settings
 
 
@@ -62,7 +82,7 @@ def score(
     weights = np.asarray(field.metadata["model_info"]["cost_weights"])
     env = gym.make(results["env_id"], world_seed=results["world_seed"], feature_field=field)
     controller = GradientController.for_env(env, weights, settings=settings)
-    episodes = [run_episode(env, controller, s) for s in tqdm(seeds, desc=desc, leave=False)]
+    episodes = run_episodes(env, controller, seeds, desc=desc)
     env.close()
     summary = summarize(episodes)
     return {
@@ -77,29 +97,22 @@ def score(
     }
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--nav", type=Path, nargs="+", required=True,
-                        help="sfa-gym navigate output folders (with field_sfa.npz)")  # fmt: skip
-    parser.add_argument("--features", default="sfa",
-                        help="the field the controller runs on: field_<features>.npz of each "
-                             "folder (sfa_graph after --train-order walk)")  # fmt: skip
-    parser.add_argument("--sets", type=int, nargs="+", default=[1000, 2000],
-                        help="first episode seed of each episode set")  # fmt: skip
-    parser.add_argument("--episodes", type=int, default=200, help="episodes per set")
-    parser.add_argument("--variant", type=parse_variant, action="append", required=True,
-                        help='name=JSON of GradientSettings fields, e.g. default={}')  # fmt: skip
-    parser.add_argument("--json", type=Path, help="write the figures here")
-    args = parser.parse_args()
+def main(args: Args) -> None:
     if args.episodes < 1:
-        parser.error(f"--episodes must be at least 1, got {args.episodes}")
+        raise SystemExit(f"--episodes must be at least 1, got {args.episodes}")
+    if not args.variant:
+        raise SystemExit("name at least one --variant, e.g. --variant default={}")
+    try:
+        variants = [parse_variant(text) for text in args.variant]
+    except ValueError as err:
+        raise SystemExit(str(err)) from None
     field = f"field_{args.features}.npz"
     for folder in args.nav:
         if not (folder / field).exists() or not (folder / "results.json").exists():
-            parser.error(f"{folder} holds no {field} and results.json of sfa-gym navigate")
+            raise SystemExit(f"{folder} holds no {field} and results.json of sfa-gym navigate")
 
     rows: list[dict[str, Any]] = []
-    for name, settings in args.variant:
+    for name, settings in variants:
         for folder in args.nav:
             for first in args.sets:
                 seeds = range(first, first + args.episodes)
@@ -118,7 +131,7 @@ def main() -> None:
                 )
     print("\n| variant | success, all | SPL, all | success, interior | SPL, interior | sets |")
     print("|---|---|---|---|---|---|")
-    for name, _ in args.variant:
+    for name, _ in variants:
         mine = [r for r in rows if r["variant"] == name]
         cells = [
             f"{np.mean([r[k] for r in mine]):.2f} ({min(r[k] for r in mine):.2f}-"
@@ -127,8 +140,9 @@ def main() -> None:
         ]
         print(f"| {name} | " + " | ".join(cells) + f" | {len(mine)} |")
     if args.json:
-        write_json_atomic(args.json, {"episodes": args.episodes, "rows": rows})
+        payload = {"episodes": args.episodes, "rows": rows}
+        args.json.write_text(json.dumps(payload, indent=1, allow_nan=False))
 
 
 if __name__ == "__main__":
-    main()
+    main(tyro.cli(Args))

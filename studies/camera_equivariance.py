@@ -1,4 +1,7 @@
-"""Benchmark: does the camera turn with the rover, and do the slow features wobble with it?
+"""Study: does the camera turn with the rover, and do the slow features wobble with it?
+
+Backs docs/localization.md ("Rotation equivariance of the camera"); writes
+``published/studies/equivariance.json`` and, with ``--png``, ``docs/equivariance.png``.
 
 A real omnidirectional camera that turns in place sees the same image, shifted. Two parts, for
 both camera modes (``PanoramaSpec.views``: "compass", the default, and "rover", the camera of
@@ -22,36 +25,34 @@ sfa-gym 0.1), in one process:
 
 Targets (issue "rotation-equivariant panoramas"): worst row <= 2 grey levels and mean <= 0.5 at
 every heading, at 350 x 40 and 600 x 60; wobble <= 1/4 of the change over 0.1 m. The
-panorama's cost is measured by ``eval/bench_env.py``.
+panorama's cost is measured by ``benchmarks/bench_env.py``.
 
 Usage (from the repository root)::
 
-    .venv/bin/python eval/bench_equivariance.py                   # both parts, ~5 min
-    .venv/bin/python eval/bench_equivariance.py --quick           # smoke run
-    .venv/bin/python eval/bench_equivariance.py --png docs/equivariance.png
+    .venv/bin/python -m studies.camera_equivariance                   # both parts, ~5 min
+    .venv/bin/python -m studies.camera_equivariance --quick           # smoke run
+    .venv/bin/python -m studies.camera_equivariance --png docs/equivariance.png
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import sys
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+import tyro
 from tqdm import tqdm
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script from a checkout
-    sys.path.insert(0, str(ROOT))
+from sfa_gym.experiments.grid import GridExperiment
+from sfa_gym.features import rotation_averaged_features
+from sfa_gym.protocols.settings import SFASettings
+from sfa_gym.recording.grid_training import grid_training_panoramas
+from sfa_gym.sim.camera import PanoramaSpec
+from sfa_gym.sim.env import OmniRoverEnv
 
-from sfa_gym.experiments.grid import GridExperiment, select_positions  # noqa: E402
-from sfa_gym.protocols.settings import SFASettings  # noqa: E402
-from sfa_gym.recording.drivers import GridPositions  # noqa: E402
-from sfa_gym.sim.camera import PanoramaSpec  # noqa: E402
-from sfa_gym.sim.env import OmniRoverEnv  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 MODES = ("rover", "compass")
 LABELS = {
@@ -126,19 +127,12 @@ def pixel_part(spec: PanoramaSpec, n_positions: int, quick: bool) -> dict:
 def train_model(mode: str, settings: SFASettings, grid: int, n_train: int):
     """The paper's simulator network trained on the grid protocol's training positions."""
     env = OmniRoverEnv(panorama=PanoramaSpec(views=mode))
-    config = GridExperiment(grid=grid, n_train=n_train, n_test=min(196, grid * grid - n_train))
-    poses = GridPositions(n=grid, seed=config.seed, order=config.order).poses(env)
-    train, _ = select_positions(config, len(poses))
-    panoramas = np.stack(
-        [render(env, *poses[i]) for i in tqdm(train, desc=f"training grid ({mode})")]
+    config = GridExperiment(
+        grid=grid, n_train=n_train, n_test=min(196, grid * grid - n_train), sfa=settings
     )
+    panoramas = grid_training_panoramas(env, config)
     model = settings.make_model(*panoramas.shape[1:3]).fit_rotations(panoramas, step=config.step)
     return env, model
-
-
-def averaged_features(model, panoramas: np.ndarray, step: int) -> np.ndarray:
-    """Features averaged over the rotated views every ``step`` columns, ``(L, n_outputs)``."""
-    return model.transform_rotations(panoramas, step=step).mean(axis=1)
 
 
 def wobble_part(
@@ -165,12 +159,14 @@ def wobble_part(
                 for a in directions
             ]
             for step in rows:
-                f = averaged_features(model, here, step)
+                f = rotation_averaged_features(model, here, step)
                 centre = f.mean(axis=0)
                 spread = math.sqrt(((f - centre) ** 2).sum(axis=1).mean())
                 change = np.mean(
                     [
-                        np.linalg.norm(averaged_features(model, p, step).mean(axis=0) - centre)
+                        np.linalg.norm(
+                            rotation_averaged_features(model, p, step).mean(axis=0) - centre
+                        )
                         for p in near
                     ]
                 )
@@ -257,16 +253,23 @@ def save_figure(path: Path, pixels: dict[str, dict]) -> None:
     plt.close(fig)
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="small smoke run")
-    parser.add_argument("--positions", type=int, default=6, help="positions of the pixel part")
-    parser.add_argument("--png", type=Path, default=None, help="write the figure here")
-    parser.add_argument(
-        "--json", type=Path, default=ROOT / "published" / "studies" / "equivariance.json"
-    )
-    parser.add_argument("--no-features", action="store_true", help="skip the feature part")
-    args = parser.parse_args(argv)
+@dataclass(frozen=True)
+class Args:
+    quick: bool = False
+    """small smoke run (2 positions, a 12 x 12 training grid)"""
+    positions: int = 6
+    """positions of the pixel part"""
+    png: Path | None = None
+    """write the figure here (docs/equivariance.png)"""
+    json: Path = ROOT / "published" / "studies" / "equivariance.json"
+    """write the figures here"""
+    features: bool = True
+    """run the feature part (``--no-features``: the pixel part alone)"""
+
+
+def main(args: Args) -> None:
+    if args.positions < 1:
+        raise SystemExit(f"--positions must be at least 1, got {args.positions}")
     n_positions = 2 if args.quick else args.positions
 
     pixels = {}
@@ -275,7 +278,7 @@ def main(argv: list[str] | None = None) -> int:
         pixels[f"{spec.width}x{spec.height}"] = part
         print(format_pixels(spec, part), flush=True)
     results: dict = {"targets": TARGETS, "pixels": pixels}
-    if not args.no_features:
+    if args.features:
         if args.quick:
             settings, grid, n_train, n_pos, n_head = SFASettings(), 12, 100, 2, 4
         else:
@@ -287,8 +290,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.png is not None:
         save_figure(args.png, pixels)
         print(f"figure: {args.png}")
-    return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main(tyro.cli(Args))

@@ -1,4 +1,4 @@
-"""Benchmark: how far pure descent on a feature field's cost gets, without any controller.
+"""Study: how far pure descent on a feature field's cost gets, without any controller.
 
 For each episode (start and goal from ``env.reset(seed)``) the cost ``sum_i w_i (f_i - g_i)^2``
 of the SFA feature field that ``sfa-gym navigate`` wrote is laid on a grid of the free cells
@@ -18,36 +18,35 @@ and walls (what a training order that jumps across them teaches), and the field'
 projected onto the first set (their part that the ideal functions span). ``--features`` picks
 another field of the folder (``sfa_graph`` after ``sfa-gym navigate --train-order walk``).
 
+Backs docs/navigation.md (false minima of the cost landscape, ideal slow features); its result
+files are ``published/studies/nav_descent_bound_*.json`` (the command behind each is in
+``published/README.md``).
+
 Usage (from the repository root; the folder from ``sfa-gym navigate``)::
 
-    .venv/bin/python eval/nav_descent_bound.py --nav results/nav_obs --first-seed 1000 \\
+    .venv/bin/python -m studies.nav_descent_bound --nav results/nav_obs --first-seed 1000 \\
         --episodes 200
-    .venv/bin/python eval/nav_descent_bound.py --nav results/nav_obs --radii 0 --ideal
+    .venv/bin/python -m studies.nav_descent_bound --nav results/nav_obs --radii 0 --ideal
 """
 
 from __future__ import annotations
 
-import argparse
 import heapq
 import json
 import math
-import sys
+from dataclasses import dataclass
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script from a checkout
-    sys.path.insert(0, str(ROOT))
+import gymnasium as gym
+import numpy as np
+import tyro
+from scipy.ndimage import gaussian_filter
+from scipy.sparse import coo_matrix
+from tqdm import tqdm
 
-import gymnasium as gym  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy.ndimage import gaussian_filter  # noqa: E402
-from scipy.sparse import coo_matrix, diags  # noqa: E402
-from scipy.sparse.linalg import eigsh  # noqa: E402
-from tqdm import tqdm  # noqa: E402
-
-import sfa_gym  # noqa: E402, F401  (registers the ids)
-from sfa_gym._files import write_json_atomic  # noqa: E402
-from sfa_gym.navigation.field import FeatureField  # noqa: E402
+import sfa_gym  # noqa: F401  (registers the ids)
+from sfa_gym.navigation.field import FeatureField
+from sfa_gym.sfa.graph import laplacian_eigenmaps
 
 CELL = 0.05  # metres between the grid's cells
 NEIGHBOURS = [(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1) if (a, b) != (0, 0)]
@@ -113,10 +112,9 @@ def descend(cost, free, start, goal_cell, success_cells, radius):
     return False
 
 
-def laplacian_eigenfunctions(free: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """The ``k`` slowest non-constant eigenfunctions ``(n_free, k)`` of the random-walk
-    Laplacian ``(D - A) v = lambda D v`` of the grid graph of ``free`` cells (4 neighbours),
-    and their eigenvalues ``(k,)``."""
+def free_cell_graph(free: np.ndarray) -> coo_matrix:
+    """The adjacency ``(n_free, n_free)`` of the grid graph of ``free`` cells (4 neighbours),
+    the cells numbered as ``np.argwhere(free)`` lists them."""
     index = -np.ones(free.shape, dtype=np.int64)
     cells = np.argwhere(free)
     index[free] = np.arange(len(cells))
@@ -131,21 +129,15 @@ def laplacian_eigenfunctions(free: np.ndarray, k: int) -> tuple[np.ndarray, np.n
     n = len(cells)
     rows, cols = np.concatenate(rows), np.concatenate(cols)
     adjacency = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    adjacency = (adjacency + adjacency.T).tocsc()
-    degree = diags(np.asarray(adjacency.sum(axis=1)).ravel()).tocsc()
-    # shift-invert just below 0 finds the smallest; a fixed start vector keeps it deterministic
-    values, vectors = eigsh(
-        degree - adjacency, k=k + 1, M=degree, sigma=-1e-6, which="LM", v0=np.ones(n)
-    )
-    order = np.argsort(values)[1:]
-    return vectors[:, order], values[order]
+    return (adjacency + adjacency.T).tocsc()
 
 
 def ideal_features(field, free, points, k: int, power: float) -> dict[str, tuple]:
     """``name -> (features on the grid (ny, nx, m), weights (m,))`` of the ideal slow features
     (module docstring)."""
-    confined, lam = laplacian_eigenfunctions(free, k)
-    box, lam_box = laplacian_eigenfunctions(np.ones_like(free), k)
+    # the slowest functions of a random walk confined to the free cells, and of one in the box
+    confined, lam = laplacian_eigenmaps(free_cell_graph(free), k)
+    box, lam_box = laplacian_eigenmaps(free_cell_graph(np.ones_like(free)), k)
     out = {}
     grid = np.zeros(free.shape + (k,))
     grid[free] = confined
@@ -161,27 +153,37 @@ def ideal_features(field, free, points, k: int, power: float) -> dict[str, tuple
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--nav", type=Path, required=True, help="sfa-gym navigate output folder")
-    parser.add_argument("--first-seed", type=int, default=1000)
-    parser.add_argument("--episodes", type=int, default=200)
-    parser.add_argument("--smooth", type=float, default=0.3, help="metres (0: no smoothing)")
-    parser.add_argument("--radii", type=float, nargs="+", default=[0.0, 0.3, 0.6, 1.0],
-                        help="escape radii (m); 0: pure descent")  # fmt: skip
-    parser.add_argument("--features", default="sfa",
-                        help="the folder's field_<features>.npz (default sfa)")  # fmt: skip
-    parser.add_argument("--ideal", action="store_true",
-                        help="also the ideal slow features (module docstring)")  # fmt: skip
-    parser.add_argument("--components", type=int, default=8,
-                        help="eigenfunctions in the ideal slow features")  # fmt: skip
-    parser.add_argument("--json", type=Path, help="write the figures here")
-    args = parser.parse_args()
-    if args.episodes < 1 or args.smooth < 0 or min(args.radii) < 0:
-        parser.error("--episodes must be >= 1, --smooth and --radii >= 0")
+@dataclass(frozen=True)
+class Args:
+    nav: Path
+    """sfa-gym navigate output folder"""
+    first_seed: int = 1000
+    """first episode seed"""
+    episodes: int = 200
+    """episodes (seeds first_seed, first_seed + 1, ...)"""
+    smooth: float = 0.3
+    """metres (0: no smoothing)"""
+    radii: tuple[float, ...] = (0.0, 0.3, 0.6, 1.0)
+    """escape radii (m); 0: pure descent"""
+    features: str = "sfa"
+    """the folder's field_<features>.npz"""
+    ideal: bool = False
+    """also the ideal slow features (module docstring)"""
+    components: int = 8
+    """eigenfunctions in the ideal slow features"""
+    json: Path | None = None
+    """write the figures here"""
+
+
+def main(args: Args) -> None:
+    if args.episodes < 1 or args.smooth < 0 or min(args.radii, default=-1) < 0:
+        raise SystemExit(
+            f"--episodes must be >= 1, --smooth and --radii >= 0 (and one radius at least), "
+            f"got {args.episodes}, {args.smooth}, {list(args.radii)}"
+        )
     name = f"field_{args.features}.npz"
     if not (args.nav / name).exists() or not (args.nav / "results.json").exists():
-        parser.error(f"{args.nav} holds no {name} and results.json of sfa-gym navigate")
+        raise SystemExit(f"{args.nav} holds no {name} and results.json of sfa-gym navigate")
 
     settings = json.loads((args.nav / "results.json").read_text())["settings"]
     field = FeatureField.load(args.nav / name)
@@ -228,14 +230,14 @@ def main() -> None:
                   f"{args.smooth:g} m, escape radius {r} m: reaches the goal in "
                   f"{fraction:.3f}")  # fmt: skip
     if args.json:
-        write_json_atomic(args.json, {
+        args.json.write_text(json.dumps({
             "nav": str(args.nav), "features": args.features, "first_seed": args.first_seed,
             "episodes": args.episodes, "smooth": args.smooth, "cell": CELL,
             "components": args.components if args.ideal else None,
             "reached": rows[args.features], "ideal": {k: v for k, v in rows.items()
                                                       if k != args.features},
-        })  # fmt: skip
+        }, indent=1, allow_nan=False))  # fmt: skip
 
 
 if __name__ == "__main__":
-    main()
+    main(tyro.cli(Args))

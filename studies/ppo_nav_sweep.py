@@ -11,24 +11,28 @@ started again; finished runs are skipped. Then it plots success and SPL against 
 (mean over seeds, with the range) to ``out/learning_curves.png`` and writes the last
 evaluation of each run to ``out/summary.json``.
 
+Backs docs/navigation.md ("PPO agents": the learning curves ``docs/ppo_learning_curves*.png``
+and the table of the last evaluations).
+
 Usage (from the repository root)::
 
     sfa-gym navigate --out results/nav --baselines baselines/
-    .venv/bin/python eval/ppo_nav_sweep.py --nav results/nav --out results/ppo
-    .venv/bin/python eval/ppo_nav_sweep.py --out results/ppo --plot-only --at 500000
+    .venv/bin/python -m studies.ppo_nav_sweep --nav results/nav --out results/ppo
+    .venv/bin/python -m studies.ppo_nav_sweep --out results/ppo --plot-only --at 500000
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import tyro
 
 ROOT = Path(__file__).resolve().parents[1]
 AGENT = ROOT / "baselines" / "agents" / "ppo_nav.py"
@@ -40,6 +44,41 @@ METHODS = [m + e for e in EXTRAS for m in FEATURES] + ["pixels", "oracle"]
 DEFAULT = [m + e for e in EXTRAS[:2] for m in FEATURES] + ["pixels", "oracle"]
 
 
+@dataclass(frozen=True)
+class Args:
+    nav: Path = Path("results/nav")
+    """navigate's output folder (its field_<features>.npz)"""
+    out: Path = Path("results/ppo")
+    """output folder"""
+    methods: tuple[str, ...] = tuple(DEFAULT)
+    """observations to train on: <features>[+estimate][+ranges] with features one of sfa,
+    fft_magnitude, band_means, pca, raw_pixels; or pixels, oracle"""
+    seeds: tuple[int, ...] = (0, 1, 2)
+    """agent seeds"""
+    env: str = "sfa_gym/OmniRoverNav-v0"
+    """navigation env id"""
+    world_seed: int = 0
+    """the fields' world seed"""
+    total_timesteps: int = 1_000_000
+    """budget of the feature agents"""
+    pixels_timesteps: int = 100_000
+    """CnnPolicy budget"""
+    oracle_timesteps: int = 200_000
+    """oracle budget"""
+    eval_every: int = 100_000
+    """steps between evaluations"""
+    eval_episodes: int = 50
+    """episodes per evaluation"""
+    workers: int = 2
+    """runs at a time"""
+    anneal_lr: bool = False
+    """the agents' --anneal-lr"""
+    plot_only: bool = False
+    """plot what the runs hold"""
+    at: int | None = None
+    """summarize the evaluations at or before this step"""
+
+
 def read_curve(run: Path) -> list[dict[str, float]]:
     path = run / "learning_curve.csv"
     if not path.exists():
@@ -48,7 +87,7 @@ def read_curve(run: Path) -> list[dict[str, float]]:
         return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
 
 
-def run_one(args: argparse.Namespace, method: str, seed: int) -> Path:
+def run_one(args: Args, method: str, seed: int) -> Path:
     run = args.out / f"{method}-{seed}"
     budget = {"pixels": args.pixels_timesteps, "oracle": args.oracle_timesteps}.get(
         method, args.total_timesteps
@@ -140,35 +179,26 @@ def plot(out: Path, methods: list[str]) -> None:
     plt.close(fig)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--nav", type=Path, default=Path("results/nav"), help="navigate's output")
-    parser.add_argument("--out", type=Path, default=Path("results/ppo"), help="output folder")
-    parser.add_argument("--methods", nargs="+", default=DEFAULT, choices=METHODS)
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
-    parser.add_argument("--env", default="sfa_gym/OmniRoverNav-v0", help="navigation env id")
-    parser.add_argument("--world-seed", type=int, default=0, help="the fields' world seed")
-    parser.add_argument("--total-timesteps", type=int, default=1_000_000)
-    parser.add_argument("--pixels-timesteps", type=int, default=100_000, help="CnnPolicy budget")
-    parser.add_argument("--oracle-timesteps", type=int, default=200_000, help="oracle budget")
-    parser.add_argument("--eval-every", type=int, default=100_000)
-    parser.add_argument("--eval-episodes", type=int, default=50)
-    parser.add_argument("--workers", type=int, default=2, help="runs at a time")
-    parser.add_argument("--anneal-lr", action="store_true", help="the agents' --anneal-lr")
-    parser.add_argument("--plot-only", action="store_true", help="plot what the runs hold")
-    parser.add_argument("--at", type=int, help="summarize the evaluations at or before this step")
-    args = parser.parse_args()
-
+def main(args: Args) -> None:
+    unknown = sorted(set(args.methods) - set(METHODS))
+    if unknown:
+        raise SystemExit(f"unknown --methods {unknown}; expected some of {METHODS}")
+    if args.workers < 1:
+        raise SystemExit(f"--workers must be at least 1, got {args.workers}")
+    if args.plot_only and not args.out.is_dir():
+        raise SystemExit(f"--plot-only: {args.out} is not a folder of runs")
     jobs = [(m, s) for s in args.seeds for m in args.methods]
     if not args.plot_only:
         fields = {"sfa" if m == "oracle" else m.partition("+")[0] for m, _ in jobs}
         for method in fields - {"pixels"}:
             if not (args.nav / f"field_{method}.npz").exists():
-                parser.error(f"no field for {method!r} in {args.nav}: run sfa-gym navigate first")
+                raise SystemExit(
+                    f"no field for {method!r} in {args.nav}: run sfa-gym navigate first"
+                )
         with ThreadPoolExecutor(args.workers) as pool:
             list(pool.map(lambda job: run_one(args, *job), jobs))
-    plot(args.out, args.methods)
-    summary = summarize(args.out, args.methods, args.at)
+    plot(args.out, list(args.methods))
+    summary = summarize(args.out, list(args.methods), args.at)
     name = "summary.json" if args.at is None else f"summary_at_{args.at}.json"
     (args.out / name).write_text(json.dumps(summary, indent=1))
     print(f"{'method':<30}{'seeds':>6}{'steps':>10}{'success':>9}{'range':>13}{'SPL':>7}")
@@ -180,4 +210,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(tyro.cli(Args))

@@ -1,7 +1,7 @@
 """How much of each slow feature codes appearance rather than place, and whether a regression
 that leaves out the most appearance-coding outputs localizes better.
 
-    .venv/bin/python eval/outdoor_appearance_share.py --out results/outdoor_ta
+    .venv/bin/python -m studies.outdoor_appearance_share --out results/outdoor_ta
 
 reads a folder written by ``sfa-gym localize-outdoor --train-also H ...`` (its ``sfa_model.npz``
 and runs). The training path was driven several times at different hours, frame for frame at
@@ -13,6 +13,8 @@ of day). Then it fits the map decoder (the outdoor table's best SFA regression) 
 and on the outputs left after dropping the 1, 2 and 3 with the largest share, and scores each
 on every test run of the folder, as the experiment does (its rotation windows per frame).
 Writes ``appearance_share.json`` into the folder.
+
+Backs docs/outdoor.md (the outputs that code the time of day). Run from the repository root.
 """
 
 from __future__ import annotations

@@ -22,32 +22,28 @@ an env step adds to the physics (us). The field is 8 features at 0.1 m over the 
 values do not change the cost of a query, so they are drawn at random instead of rendered.
 ``--json`` writes the figures.
 
+Backs docs/speed.md and docs/navigation.md (steps per second in feature-field mode).
+
 Usage (from the repository root)::
 
-    .venv/bin/python eval/bench_nav_steps.py          # the three navigation envs, ~2 min
-    .venv/bin/python eval/bench_nav_steps.py --env sfa_gym/OmniRoverNavMaze-v0
+    .venv/bin/python -m benchmarks.bench_nav_steps          # the three navigation envs, ~2 min
+    .venv/bin/python -m benchmarks.bench_nav_steps --env sfa_gym/OmniRoverNavMaze-v0
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
-import sys
 import time
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # per core: no hidden threads in numpy's BLAS
 
+import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script from a checkout
-    sys.path.insert(0, str(ROOT))
-
-import gymnasium as gym  # noqa: E402
-
 import sfa_gym  # noqa: E402, F401  (registers the ids)
-from sfa_gym._files import write_json_atomic  # noqa: E402
 from sfa_gym.navigation.controllers import GradientController  # noqa: E402
 from sfa_gym.navigation.field import FeatureField  # noqa: E402
 
@@ -163,7 +159,8 @@ def main() -> None:
             },
         }
     if args.json:
-        write_json_atomic(args.json, {"steps_per_second": results})
+        payload = {"steps_per_second": results}
+        args.json.write_text(json.dumps(payload, indent=1, allow_nan=False))
 
 
 if __name__ == "__main__":

@@ -2,10 +2,13 @@
 
 The panoramas are smooth random images (periodic in width) that morph slowly from one location
 to the next along a path, so that consecutive training locations look alike as on a real run.
-Use it to check that a preset trains within budget on a given machine::
+Backs docs/speed.md. Use it to check that a preset trains within budget on a given machine
+(from the repository root)::
 
-    python eval/bench_sfa_training.py --preset paper_outdoor --locations 5900   # fit_rotations
-    python eval/bench_sfa_training.py --preset paper_sim --views 2000           # fit on frames
+    # fit_rotations
+    .venv/bin/python -m benchmarks.bench_sfa_training --preset paper_outdoor --locations 5900
+    # fit on frames
+    .venv/bin/python -m benchmarks.bench_sfa_training --preset paper_sim --views 2000
 
 The numbers depend on the machine and its load; BLAS threads follow ``OPENBLAS_NUM_THREADS``.
 """

@@ -22,12 +22,14 @@ figures that are compared (panorama and its references) are timed in interleaved
 that they see the same load. CPU time counts llvmpipe's worker threads; for figures that do
 not depend on them, pass ``--lp-threads 0`` (rasterise in the calling thread).
 
+Backs docs/speed.md.
+
 Usage (from the repository root)::
 
-    .venv/bin/python eval/bench_env.py                  # full tables
-    .venv/bin/python eval/bench_env.py --lp-threads 0   # per-core figures, one thread
-    .venv/bin/python eval/bench_env.py --quick          # smoke run
-    .venv/bin/python eval/bench_env.py --png out/       # also write the panoramas compared
+    .venv/bin/python -m benchmarks.bench_env                  # full tables
+    .venv/bin/python -m benchmarks.bench_env --lp-threads 0   # per-core figures, one thread
+    .venv/bin/python -m benchmarks.bench_env --quick          # smoke run
+    .venv/bin/python -m benchmarks.bench_env --png out/       # also write the panoramas compared
 """
 
 from __future__ import annotations
@@ -35,7 +37,6 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -43,11 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script from a checkout
-    sys.path.insert(0, str(ROOT))
-
-from sfa_gym.sim import gl  # noqa: E402
+from sfa_gym.sim import gl
 
 gl.configure()
 
@@ -57,8 +54,8 @@ import mujoco  # noqa: E402
 from sfa_gym.sim.camera import PanoramaSpec  # noqa: E402
 from sfa_gym.sim.camera.renderer import (  # noqa: E402
     OmniCamera,
-    _headlight_to_eye,
-    _sample_nearest,
+    headlight_to_eye,
+    sample_nearest,
 )
 from sfa_gym.sim.env import OmniRoverEnv  # noqa: E402
 
@@ -155,13 +152,13 @@ def single_renderer(camera: OmniCamera, width: int, height: int, *, tuned: bool)
         for flag in ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_POST_PROCESSING"):
             flags[getattr(mujoco.mjtRndFlag, flag)] = 0
         renderer._gl_context.make_current()
-        _sample_nearest(renderer._mjr_context, camera._smooth_skies)
+        sample_nearest(renderer._mjr_context, camera.smooth_skies)
     cam_name = f"{camera.prefix}0"
 
     def render(data: mujoco.MjData) -> np.ndarray:
         renderer.update_scene(data, camera=cam_name, scene_option=option)
         if tuned:
-            _headlight_to_eye(renderer.scene)
+            headlight_to_eye(renderer.scene)
         return renderer.render()
 
     return render, renderer.close

@@ -25,14 +25,16 @@ figures are noisy. Writes ``published/benchmarks/leaderboard_bench.json`` (``--j
    (its first world seed) from a cold cache, timed; the full board's time per track is
    estimated as that times the track's world seeds (each world seed renders its own runs).
 
+Backs docs/leaderboard.md (measured times).
+
 Usage (from the repository root; ~15-20 min on 2 cores, plus the outdoor tracks)::
 
-    .venv/bin/python eval/bench_leaderboard.py
-    .venv/bin/python eval/bench_leaderboard.py --skip-board --cache ~/.cache/sfa-gym/runs
-    .venv/bin/python eval/bench_leaderboard.py --skip-ray --tracks outdoor_paper \
+    .venv/bin/python -m benchmarks.bench_leaderboard
+    .venv/bin/python -m benchmarks.bench_leaderboard --skip-board --cache ~/.cache/sfa-gym/runs
+    .venv/bin/python -m benchmarks.bench_leaderboard --skip-ray --tracks outdoor_paper \
         outdoor_appearance --board-method band_means fft_magnitude eval/methods/sfa.py \
         --json published/benchmarks/leaderboard_outdoor_bench.json
-    .venv/bin/python eval/bench_leaderboard.py --full-size band_means \
+    .venv/bin/python -m benchmarks.bench_leaderboard --full-size band_means \
         --json published/benchmarks/leaderboard_full_bench.json
 """
 
@@ -42,24 +44,20 @@ import argparse
 import json
 import os
 import platform
-import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script from a checkout
-    sys.path.insert(0, str(ROOT))
+import sfa_gym
+from sfa_gym.leaderboard.backends import run_tasks
+from sfa_gym.leaderboard.evaluate import Task
+from sfa_gym.leaderboard.results import git_commit
+from sfa_gym.leaderboard.sweep import run_sweep
+from sfa_gym.leaderboard.tracks import list_tracks
+from sfa_gym.recording.cache import RunCache
 
-import sfa_gym  # noqa: E402
-from sfa_gym._files import write_json_atomic  # noqa: E402
-from sfa_gym.leaderboard.backends import run_tasks  # noqa: E402
-from sfa_gym.leaderboard.evaluate import Task  # noqa: E402
-from sfa_gym.leaderboard.results import git_commit  # noqa: E402
-from sfa_gym.leaderboard.sweep import run_sweep  # noqa: E402
-from sfa_gym.leaderboard.tracks import list_tracks  # noqa: E402
-from sfa_gym.recording.cache import RunCache  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 BASELINES = ROOT / "baselines"
 
@@ -292,7 +290,7 @@ def main(argv: list[str] | None = None) -> int:
 def _write(report: dict[str, Any], started: float, path: Path) -> int:
     report["seconds"] = round(time.perf_counter() - started, 2)
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(path, report)
+    path.write_text(json.dumps(report, indent=1, allow_nan=False))
     print(f"wrote {path}")
     return 0
 

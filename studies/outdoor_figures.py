@@ -1,11 +1,13 @@
 """The README's pictures of the outdoor world: a strip of panoramas, the mirror camera's circular
 image and its unwarped panorama.
 
-    .venv/bin/python eval/outdoor_figures.py [--out docs] [--world-seed 0]
+    .venv/bin/python -m studies.outdoor_figures [--out docs] [--world-seed 0]
 
 Writes ``outdoor_strip.png`` (cylindrical panoramas at the centre and two corners, then the
 mirror camera at the centre, each at its time of day and with the movers where they are),
 ``mirror_circular.png`` and ``mirror_panorama.png``. Rerun it whenever the world changes.
+
+Backs docs/outdoor.md (the pictures of the outdoor world). Run from the repository root.
 """
 
 from __future__ import annotations

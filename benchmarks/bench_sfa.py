@@ -24,10 +24,12 @@ Every measurement runs in its own child process, so that each peak resident set 
 temporary directory and loaded by the children (their RSS right after loading is reported as
 the baseline). The machine may be shared: times are wall-clock and noisy.
 
+Backs docs/speed.md.
+
 Usage (from the repository root)::
 
-    .venv/bin/python eval/bench_sfa.py                                  # full: 3000 / 5900
-    .venv/bin/python eval/bench_sfa.py --frames 200 --test-frames 50 --locations 40 \
+    .venv/bin/python -m benchmarks.bench_sfa                                  # full: 3000 / 5900
+    .venv/bin/python -m benchmarks.bench_sfa --frames 200 --test-frames 50 --locations 40 \
         --rotation-locations 4  # smoke
 
 Writes ``published/benchmarks/bench_sfa.json`` (``--json``) and prints a table.
@@ -52,11 +54,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script from a checkout
-    sys.path.insert(0, str(ROOT))
+from sfa_gym.sfa.synthetic import landmark_panoramas, smooth_path
 
-from sfa_gym.sfa.synthetic import landmark_panoramas, smooth_path  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 N_OUTPUTS = 8
 LAYER_VIEWS = 50
@@ -310,7 +310,8 @@ def _child(
 def _run_child(kind: str, data_dir: Path, cfg: BenchConfig) -> dict[str, Any]:
     cmd = [
         sys.executable,
-        str(Path(__file__).resolve()),
+        "-m",
+        "benchmarks.bench_sfa",
         "--_child",
         kind,
         "--_data",
@@ -328,7 +329,7 @@ def _run_child(kind: str, data_dir: Path, cfg: BenchConfig) -> dict[str, Any]:
     print(f"[{kind}] running in a child process ...", flush=True)
     load_before = os.getloadavg()[0]
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env, cwd=ROOT)
     elapsed = time.perf_counter() - t0
     if proc.returncode != 0:
         raise RuntimeError(f"the {kind!r} child failed:\n{proc.stderr[-4000:]}")

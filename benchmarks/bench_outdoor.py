@@ -11,9 +11,11 @@ seen by the cylindrical camera (the reference, measured in the same process):
 * ``outdoor dynamics+sensor``: and the camera's auto-exposure and noise;
 * ``OmniRoverOutdoor-v0``: all of it through the mirror camera (the registered id).
 
+Backs docs/speed.md (the outdoor world's cost per step).
+
 Usage (from the repository root)::
 
-    .venv/bin/python eval/bench_outdoor.py [--steps 40] [--repeats 5]
+    .venv/bin/python -m benchmarks.bench_outdoor [--steps 40] [--repeats 5]
 """
 
 from __future__ import annotations
