@@ -5,8 +5,9 @@ The protocols format their own ``results.json`` (:func:`sfa_gym.experiments.repo
 other kinds of result file under ``published/``: the leaderboard's reference board (one record
 per track and method), the navigation studies' episode sets (rows of ``variant``, ``env_id``,
 ``world_seed``, ``first_seed`` and the scores), the descent bounds, the navigation step rates,
-the outdoor world's cost per step and the SFA engine against MDP. Each takes the parsed JSON of
-one or more files and the options of its marker, and returns markdown.
+the outdoor world's cost per step, the SFA engine against MDP and the leaderboard's timings.
+Each takes the parsed JSON of one or more files and the options of its marker, and returns
+markdown.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ __all__ = [
     "board_parts_table",
     "board_table",
     "descent_bound_table",
+    "leaderboard_timings_table",
     "nav_sets_table",
     "nav_steps_table",
     "outdoor_cost_table",
@@ -238,3 +240,53 @@ def sfa_engine_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -
             ]
             lines.append(_row(cells))
     return "\n".join(lines)
+
+
+def leaderboard_timings_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Wall time of the leaderboard (``benchmarks/bench_leaderboard.py``) for ``part=quick``
+    (each quick track, one method, cold cache), ``part=full`` (one task per full-size track,
+    times its world seeds) or ``part=ray`` (the same tasks on 1 and 2 Ray workers)."""
+    part = options.get("part", "quick")
+    key = {"quick": "quick_board", "full": "full_size", "ray": "ray"}.get(part)
+    if key is None:
+        raise ValueError(f"leaderboard-timings: part={part!r}; expected quick, full or ray")
+    data = _one_with(files, key, "leaderboard-timings")
+    if part == "ray":
+        lines = _head(["local Ray", "wall time s", "sum of the tasks' own times s"])
+        for run in data["runs"]:
+            cells = [
+                f"{run['num_cpus']} CPU",
+                f"{run['seconds']:.1f}",
+                f"{run['task_seconds_sum']:.1f}",
+            ]
+            lines.append(_row(cells))
+        first, *rest = data["runs"]
+        for run in rest:
+            speedup = first["seconds"] / run["seconds"]
+            lines.append(_row([f"speed-up at {run['num_cpus']} CPUs", f"{speedup:.2f}x", ""]))
+        return "\n".join(lines)
+    if part == "quick":
+        lines = _head([f"quick track, {data['method']}", "wall time s", "of which rendering s"])
+        for t in data["tracks"]:
+            cells = [f"{t['seconds']:.1f}", f"{t['render_seconds']:.1f}"]
+            lines.append(_row([f"`{t['track']}`", *cells]))
+        lines.append(_row(["every track", f"{data['seconds']:.0f}", ""]))
+        return "\n".join(lines)
+    lines = _head(
+        [f"full-size track, {data['method']}", "one world seed s", "of which rendering s"]
+        + ["world seeds", "track min"]
+    )
+    for t in data["tracks"]:
+        cells = [f"{t['seconds']:.0f}", f"{t['render_seconds']:.0f}", t["world_seeds"]]
+        lines.append(_row([f"`{t['track']}`", *cells, f"{t['estimated_track_seconds'] / 60:.1f}"]))
+    hours = data["estimated_board_seconds"] / 3600
+    lines.append(_row(["the full board, one method", "", "", "", f"{hours:.1f} h"]))
+    return "\n".join(lines)
+
+
+def _one_with(files: Sequence[dict[str, Any]], key: str, name: str) -> dict[str, Any]:
+    """The ``key`` entry of the one file that has it."""
+    found = [data[key] for data in files if key in data]
+    if len(found) != 1:
+        raise ValueError(f"{name}: expected one file with {key!r}, found {len(found)}")
+    return found[0]
