@@ -5,9 +5,9 @@ The protocols format their own ``results.json`` (:func:`sfa_gym.experiments.repo
 other kinds of result file under ``published/``: the leaderboard's reference board (one record
 per track and method), the navigation studies' episode sets (rows of ``variant``, ``env_id``,
 ``world_seed``, ``first_seed`` and the scores), the descent bounds, the navigation step rates,
-the outdoor world's cost per step, the SFA engine against MDP and the leaderboard's timings.
-Each takes the parsed JSON of one or more files and the options of its marker, and returns
-markdown.
+the outdoor world's cost per step, the SFA engine against MDP, the leaderboard's timings and
+the camera's rotation equivariance. Each takes the parsed JSON of one or more files and the
+options of its marker, and returns markdown.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ __all__ = [
     "board_parts_table",
     "board_table",
     "descent_bound_table",
+    "equivariance_table",
     "leaderboard_timings_table",
     "nav_sets_table",
     "nav_steps_table",
@@ -290,3 +291,60 @@ def _one_with(files: Sequence[dict[str, Any]], key: str, name: str) -> dict[str,
     if len(found) != 1:
         raise ValueError(f"{name}: expected one file with {key!r}, found {len(found)}")
     return found[0]
+
+
+_CAMERAS = {
+    "compass": "compass views (the camera)",
+    "rover": "views turning with the rover (version 0.1)",
+    "reference": "reference: 8 compass views, 4x supersampling",
+}
+
+
+def _spread(values: Sequence[float]) -> str:
+    low, high = min(values), max(values)
+    return f"{low:.1f}" if f"{low:.1f}" == f"{high:.1f}" else f"{low:.1f}-{high:.1f}"
+
+
+def equivariance_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """The camera's rotation equivariance (``studies/camera_equivariance.py``).
+
+    ``part=pixels``: per camera and panorama size, the error of a turned panorama shifted back
+    (worst row / whole panorama, grey levels, the lowest-highest over the turns), for turns by
+    whole columns and by fractions of a column. ``part=wobble``: the rotation-averaged
+    features' wobble over headings, median (max) over the positions, averaged over the views
+    every 5 columns and over every column.
+    """
+    data = _one_with(files, "pixels", "equivariance")
+    part = options.get("part", "pixels")
+    if part == "wobble":
+        wobble = _one_with(files, "wobble", "equivariance")
+        lines = _head(["camera", "views every 5 columns", "every column (step 1)"])
+        for camera, steps in wobble.items():
+            cells = [
+                f"{steps[s]['median']:.2f} ({steps[s]['max']:.2f})" for s in ("step_5", "step_1")
+            ]
+            lines.append(_row([_CAMERAS.get(camera, camera), *cells]))
+        return "\n".join(lines)
+    if part != "pixels":
+        raise ValueError(f"equivariance: part={part!r}; expected pixels or wobble")
+    sizes = list(data)
+    head = ["camera"]
+    for kind in ("whole columns", "fractions of a column"):
+        head += [f"{kind}, {size}" for size in sizes]
+    lines = _head(head)
+    cameras = list(dict.fromkeys(c for size in sizes for c in data[size]["cameras"]))
+    for camera in cameras:
+        cells = []
+        for whole in (True, False):
+            for size in sizes:
+                turns = data[size]["headings"]
+                found = data[size]["cameras"].get(camera)
+                if found is None:
+                    cells.append("-")
+                    continue
+                picked = [i for i, k in enumerate(turns) if (k == int(k)) == whole]
+                worst = [found["worst_row"][i] for i in picked]
+                mean = [found["mean"][i] for i in picked]
+                cells.append(f"{_spread(worst)} / {_spread(mean)}")
+        lines.append(_row([_CAMERAS.get(camera, camera), *cells]))
+    return "\n".join(lines)

@@ -70,13 +70,14 @@ GENERATORS: dict[str, Generator] = {
     "outdoor-cost": formatters.outdoor_cost_table,
     "sfa-engine": formatters.sfa_engine_table,
     "leaderboard-timings": formatters.leaderboard_timings_table,
+    "equivariance": formatters.equivariance_table,
 }
 """Formatters by the name a marker gives: ``localization`` (a localization protocol's
 ``results.json``, :func:`sfa_gym.experiments.report.format_table`), ``navigation`` (the
 navigation protocol's ``results.json``), ``board`` and ``board-parts`` (the leaderboard's
 reference board), ``nav-sets`` (navigation studies' episode sets), ``descent-bound``,
-``nav-steps``, ``outdoor-cost``, ``sfa-engine`` and ``leaderboard-timings``
-(:mod:`sfa_gym.report.formatters`)."""
+``nav-steps``, ``outdoor-cost``, ``sfa-engine``, ``leaderboard-timings`` and
+``equivariance`` (:mod:`sfa_gym.report.formatters`)."""
 
 _BLOCK = re.compile(
     r"<!-- generated: (?P<spec>[^\n]*?) -->\n(?P<body>.*?)<!-- end generated -->", re.DOTALL
