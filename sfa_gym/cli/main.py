@@ -12,6 +12,8 @@
   (:class:`~sfa_gym.cli.navigate.Navigate`).
 - ``sfa-gym leaderboard run|table``: score methods on the versioned tracks, build the table
   (:class:`~sfa_gym.cli.leaderboard.Leaderboard`).
+- ``sfa-gym docs-tables [--check]``: the tables of README.md and docs/ from the committed result
+  files (:class:`~sfa_gym.cli.docs.DocsTables`).
 
 Each option is a field of a settings dataclass and its help text is the field's docstring;
 values are checked by the dataclass's ``validate()``, before anything is written. A bad value
@@ -26,6 +28,7 @@ from typing import Annotated
 
 import tyro
 
+from sfa_gym.cli.docs import DocsTables
 from sfa_gym.cli.leaderboard import Leaderboard
 from sfa_gym.cli.localize import Localize, LocalizeOutdoor, LocalizeRun
 from sfa_gym.cli.navigate import Navigate
@@ -41,6 +44,7 @@ Command = (
     | Annotated[LocalizeOutdoor, tyro.conf.subcommand("localize-outdoor")]
     | Annotated[Navigate, tyro.conf.subcommand("navigate")]
     | Annotated[Leaderboard, tyro.conf.subcommand("leaderboard")]
+    | Annotated[DocsTables, tyro.conf.subcommand("docs-tables")]
 )
 """The subcommands, one settings dataclass each."""
 
@@ -52,7 +56,7 @@ DESCRIPTION = (
 
 def parse(
     argv: Sequence[str] | None = None,
-) -> Record | Localize | LocalizeRun | LocalizeOutdoor | Navigate | Leaderboard:
+) -> Record | Localize | LocalizeRun | LocalizeOutdoor | Navigate | Leaderboard | DocsTables:
     """The command and its settings from ``argv`` (default: ``sys.argv[1:]``); ``--help`` and
     unparsable options exit as argparse does."""
     return tyro.cli(

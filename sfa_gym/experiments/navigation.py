@@ -25,8 +25,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym._checks import check_int
-from sfa_gym.experiments.report import check_out_folder
 from sfa_gym.capabilities import Capabilities
+from sfa_gym.experiments.report import check_out_folder
 from sfa_gym.protocols import navigation as protocol
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.rotation import Rotation

@@ -1,0 +1,350 @@
+"""Markdown tables for the committed result files that no other module formats.
+
+The protocols format their own ``results.json`` (:func:`sfa_gym.experiments.report.format_table`,
+:func:`sfa_gym.experiments.navigation.format_navigation_table`); the formatters here cover the
+other kinds of result file under ``published/``: the leaderboard's reference board (one record
+per track and method), the navigation studies' episode sets (rows of ``variant``, ``env_id``,
+``world_seed``, ``first_seed`` and the scores), the descent bounds, the navigation step rates,
+the outdoor world's cost per step, the SFA engine against MDP, the leaderboard's timings and
+the camera's rotation equivariance. Each takes the parsed JSON of one or more files and the
+options of its marker, and returns markdown.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "board_parts_table",
+    "board_table",
+    "descent_bound_table",
+    "equivariance_table",
+    "leaderboard_timings_table",
+    "nav_sets_table",
+    "nav_steps_table",
+    "outdoor_cost_table",
+    "sfa_engine_table",
+]
+
+WORLDS = {
+    "sfa_gym/OmniRoverNav-v0": "open",
+    "sfa_gym/OmniRoverNavObstacles-v0": "obstacles",
+    "sfa_gym/OmniRoverNavMaze-v0": "maze",
+}
+"""Navigation env ids by the short name of their world, as the tables print them."""
+
+
+def _row(cells: Sequence[object]) -> str:
+    return "| " + " | ".join(str(c) for c in cells) + " |"
+
+
+def _head(cells: Sequence[str]) -> list[str]:
+    return [_row(cells), "|" + "---|" * len(cells)]
+
+
+def _records(files: Sequence[dict[str, Any]], option: str) -> list[dict[str, Any]]:
+    """The board records of every file (``{"results": [...]}``), in file order."""
+    out: list[dict[str, Any]] = []
+    for data in files:
+        if not isinstance(data.get("results"), list):
+            raise ValueError(f"{option}: expected a board file with a 'results' list")
+        out += data["results"]
+    return out
+
+
+def _split(value: str | None) -> list[str] | None:
+    return None if value is None else [v for v in value.split(",") if v]
+
+
+def board_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Tracks as rows, methods as columns: the mean score over the track's world seeds, the
+    best of each row in bold (lowest MAE, highest success).
+
+    Options: ``tracks=a,b`` and ``methods=a,b`` choose and order rows and columns (default:
+    all, as they come in the file).
+    """
+    records = _records(files, "board")
+    tracks = _split(options.get("tracks")) or list(dict.fromkeys(r["track"] for r in records))
+    methods = _split(options.get("methods")) or list(dict.fromkeys(r["method"] for r in records))
+    cells = {(r["track"], r["method"]): r for r in records}
+    missing = [t for t in tracks if not any((t, m) in cells for m in methods)]
+    if missing:
+        raise ValueError(f"board: track {missing[0]!r} has no result in the file")
+    lines = _head(["track (version)", "score", *methods])
+    for t in tracks:
+        found = [cells.get((t, m)) for m in methods]
+        present = [r for r in found if r is not None]
+        higher = present[0]["score"]["higher_is_better"]
+        means = [r["score"]["mean"] for r in present]
+        best = max(means) if higher else min(means)
+        row = [f"`{t}` ({present[0]['track_version']})", "success" if higher else "MAE %"]
+        for r in found:
+            if r is None:
+                row.append("-")
+            else:
+                text = f"{r['score']['mean']:.2f}"
+                row.append(f"**{text}**" if f"{best:.2f}" == text else text)
+        lines.append(_row(row))
+    return "\n".join(lines)
+
+
+def board_parts_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """One track's parts (for the outdoor tracks: each test condition and the unvisited
+    region), methods as rows, MAE % as the mean over the world seeds. Option ``track=name``."""
+    track = options.get("track")
+    if track is None:
+        raise ValueError("board-parts needs track=NAME")
+    found = [r for r in _records(files, "board-parts") if r["track"] == track and "parts" in r]
+    if not found:
+        raise ValueError(f"board-parts: no result of track {track!r} with parts in the file")
+    parts = list(dict.fromkeys(p for r in found for p in r["parts"]))
+    lines = _head(["method", *parts])
+    for r in found:
+        values = [r["parts"].get(p) for p in parts]
+        lines.append(_row([r["method"], *("-" if v is None else f"{v:.2f}" for v in values)]))
+    return "\n".join(lines)
+
+
+def _mean_and_range(values: Sequence[float]) -> str:
+    if len(values) == 1:
+        return f"{values[0]:.2f}"
+    return f"{np.mean(values):.2f} ({min(values):.3g}-{max(values):.3g})"
+
+
+def nav_sets_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Navigation episode sets: per world, features and variant the mean over the sets, with
+    the lowest and highest set in brackets (``sets=mean``, the default); or one row per set,
+    success on all pairs with SPL in brackets (``sets=each``).
+
+    ``runs=hilbert,walk,...`` names each file's training run (the study files do not record
+    it); the table then has a column for it and keeps the files' sets apart.
+    """
+    runs = _split(options.get("runs"))
+    if runs is not None and len(runs) != len(files):
+        raise ValueError(f"nav-sets: runs= names {len(runs)} training runs for {len(files)} files")
+    mode = options.get("sets", "mean")
+    if mode not in ("mean", "each"):
+        raise ValueError(f"nav-sets: sets={mode!r}; expected 'mean' or 'each'")
+    groups: dict[tuple[str, ...], list[dict[str, Any]]] = {}
+    for i, data in enumerate(files):
+        if not isinstance(data.get("rows"), list):
+            raise ValueError("nav-sets: expected a study file with a 'rows' list")
+        for r in data["rows"]:
+            key = (WORLDS.get(r["env_id"], r["env_id"]), r.get("features", "sfa"), r["variant"])
+            if mode == "each":
+                last = r["first_seed"] + data["episodes"] - 1
+                key += (str(r["world_seed"]), f"{r['first_seed']}-{last}")
+            groups.setdefault(key if runs is None else (runs[i], *key), []).append(r)
+    head = ["world", "features", "variant"]
+    head = head if runs is None else ["training run", *head]
+    if mode == "each":
+        lines = _head([*head, "world seed", "episode seeds", "success (SPL)"])
+        for key, (r,) in groups.items():
+            lines.append(_row([*key, f"{r['success_all']:.3g} ({r['spl_all']:.2f})"]))
+        return "\n".join(lines)
+    scores = ("success_all", "spl_all", "success_interior", "spl_interior")
+    lines = _head([*head, "sets", "success, all", "SPL, all", "success, interior", "SPL, interior"])
+    for key, group in groups.items():
+        cells = [_mean_and_range([g[k] for g in group]) for k in scores]
+        lines.append(_row([*key, len(group), *cells]))
+    return "\n".join(lines)
+
+
+_CURVES = {
+    "laplacian_box": "ideal: the box's eigenfunctions",
+    "laplacian_free": "ideal: the free space's eigenfunctions",
+    "projected": "features projected onto the free space's",
+}
+
+
+def descent_bound_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Share of starts from which steepest descent on a field's smoothed cost reaches the goal:
+    a row per features (and ideal eigenfunctions), a column per escape radius (0: pure
+    descent)."""
+    entries: list[tuple[str, dict[str, float]]] = []
+    for data in files:
+        if "reached" not in data:
+            raise ValueError("descent-bound: expected a file with 'reached'")
+        where = f"{data['nav']}, {data.get('features', 'sfa')}"
+        entries.append((where, data["reached"]))
+        for curve, reached in data.get("ideal", {}).items():
+            entries.append((f"{data['nav']}, {_CURVES.get(curve, curve)}", reached))
+    radii = sorted({r for _, reached in entries for r in reached}, key=float)
+    names = ["pure descent" if float(r) == 0 else f"{r} m escape" for r in radii]
+    lines = _head(["field, cost on", *names])
+    for where, reached in entries:
+        lines.append(_row([where, *(f"{reached[r]:.3g}" if r in reached else "-" for r in radii)]))
+    return "\n".join(lines)
+
+
+def nav_steps_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Steps per second of each navigation env in each mode, the ratio to physics alone in
+    brackets."""
+    lines: list[str] = []
+    for data in files:
+        rates = data["steps_per_second"]
+        # the rates are the numbers; the nested objects (ratios, added time) are derived
+        first = next(iter(rates.values()))
+        modes = [m for m, value in first.items() if not isinstance(value, dict)]
+        lines += _head(["env", *modes])
+        for env, entry in rates.items():
+            ratio = entry.get("ratio to physics", {})
+            cells = [
+                f"{entry[m]:.0f}" + (f" ({ratio[m]:.2f})" if m in ratio and ratio[m] != 1 else "")
+                for m in modes
+            ]
+            lines.append(_row([f"`{env.removeprefix('sfa_gym/')}`", *cells]))
+    return "\n".join(lines)
+
+
+def outdoor_cost_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Milliseconds per env step and the ratio to the first row (the static ``paper_sim``)."""
+    lines = _head(["env, 600 x 60", "ms per step", "ratio"])
+    for data in files:
+        for name, row in data["rows"].items():
+            lines.append(_row([name, f"{row['ms_per_step']:.1f}", f"{row['ratio']:.2f}"]))
+    return "\n".join(lines)
+
+
+_SFA_RUNS = (
+    ("views along a smooth path, ours", ("ours",)),
+    ("views along a smooth path, MDP", ("mdp",)),
+    ("rotated views, ours, rotation shortcut", ("rotations", "ours")),
+    ("rotated views, ours, every view", ("rotations", "ours_views")),
+    ("rotated views, MDP", ("rotations", "mdp")),
+    ("paper_outdoor scale, ours, rotation shortcut", ("paper",)),
+)
+
+
+def sfa_engine_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """SFA training against MDP (``benchmarks/bench_sfa.py``): training views, training time
+    per view, peak memory and inference time of each run the file holds."""
+    lines = _head(["run", "views", "training ms per view", "peak GB", "inference ms (batch)"])
+    for data in files:
+        for label, path in _SFA_RUNS:
+            run: Any = data
+            for key in path:
+                run = run.get(key) if isinstance(run, dict) else None
+            if not run:
+                continue
+            per_view = 1000 * run["fit_seconds"] / run["n_training_views"]
+            infer = run.get("infer_ms_batch")
+            cells = [
+                label,
+                run["n_training_views"],
+                f"{per_view:.3g}",
+                f"{run['peak_rss_mb'] / 1024:.2f}",
+                "-" if infer is None else f"{infer:.2f}",
+            ]
+            lines.append(_row(cells))
+    return "\n".join(lines)
+
+
+def leaderboard_timings_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Wall time of the leaderboard (``benchmarks/bench_leaderboard.py``) for ``part=quick``
+    (each quick track, one method, cold cache), ``part=full`` (one task per full-size track,
+    times its world seeds) or ``part=ray`` (the same tasks on 1 and 2 Ray workers)."""
+    part = options.get("part", "quick")
+    key = {"quick": "quick_board", "full": "full_size", "ray": "ray"}.get(part)
+    if key is None:
+        raise ValueError(f"leaderboard-timings: part={part!r}; expected quick, full or ray")
+    data = _one_with(files, key, "leaderboard-timings")
+    if part == "ray":
+        lines = _head(["local Ray", "wall time s", "sum of the tasks' own times s"])
+        for run in data["runs"]:
+            cells = [
+                f"{run['num_cpus']} CPU",
+                f"{run['seconds']:.1f}",
+                f"{run['task_seconds_sum']:.1f}",
+            ]
+            lines.append(_row(cells))
+        first, *rest = data["runs"]
+        for run in rest:
+            speedup = first["seconds"] / run["seconds"]
+            lines.append(_row([f"speed-up at {run['num_cpus']} CPUs", f"{speedup:.2f}x", ""]))
+        return "\n".join(lines)
+    if part == "quick":
+        lines = _head([f"quick track, {data['method']}", "wall time s", "of which rendering s"])
+        for t in data["tracks"]:
+            cells = [f"{t['seconds']:.1f}", f"{t['render_seconds']:.1f}"]
+            lines.append(_row([f"`{t['track']}`", *cells]))
+        lines.append(_row(["every track", f"{data['seconds']:.0f}", ""]))
+        return "\n".join(lines)
+    lines = _head(
+        [f"full-size track, {data['method']}", "one world seed s", "of which rendering s"]
+        + ["world seeds", "track min"]
+    )
+    for t in data["tracks"]:
+        cells = [f"{t['seconds']:.0f}", f"{t['render_seconds']:.0f}", t["world_seeds"]]
+        lines.append(_row([f"`{t['track']}`", *cells, f"{t['estimated_track_seconds'] / 60:.1f}"]))
+    hours = data["estimated_board_seconds"] / 3600
+    lines.append(_row(["the full board, one method", "", "", "", f"{hours:.1f} h"]))
+    return "\n".join(lines)
+
+
+def _one_with(files: Sequence[dict[str, Any]], key: str, name: str) -> dict[str, Any]:
+    """The ``key`` entry of the one file that has it."""
+    found = [data[key] for data in files if key in data]
+    if len(found) != 1:
+        raise ValueError(f"{name}: expected one file with {key!r}, found {len(found)}")
+    return found[0]
+
+
+_CAMERAS = {
+    "compass": "compass views (the camera)",
+    "rover": "views turning with the rover (version 0.1)",
+    "reference": "reference: 8 compass views, 4x supersampling",
+}
+
+
+def _spread(values: Sequence[float]) -> str:
+    low, high = min(values), max(values)
+    return f"{low:.1f}" if f"{low:.1f}" == f"{high:.1f}" else f"{low:.1f}-{high:.1f}"
+
+
+def equivariance_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """The camera's rotation equivariance (``studies/camera_equivariance.py``).
+
+    ``part=pixels``: per camera and panorama size, the error of a turned panorama shifted back
+    (worst row / whole panorama, grey levels, the lowest-highest over the turns), for turns by
+    whole columns and by fractions of a column. ``part=wobble``: the rotation-averaged
+    features' wobble over headings, median (max) over the positions, averaged over the views
+    every 5 columns and over every column.
+    """
+    data = _one_with(files, "pixels", "equivariance")
+    part = options.get("part", "pixels")
+    if part == "wobble":
+        wobble = _one_with(files, "wobble", "equivariance")
+        lines = _head(["camera", "views every 5 columns", "every column (step 1)"])
+        for camera, steps in wobble.items():
+            cells = [
+                f"{steps[s]['median']:.2f} ({steps[s]['max']:.2f})" for s in ("step_5", "step_1")
+            ]
+            lines.append(_row([_CAMERAS.get(camera, camera), *cells]))
+        return "\n".join(lines)
+    if part != "pixels":
+        raise ValueError(f"equivariance: part={part!r}; expected pixels or wobble")
+    sizes = list(data)
+    head = ["camera"]
+    for kind in ("whole columns", "fractions of a column"):
+        head += [f"{kind}, {size}" for size in sizes]
+    lines = _head(head)
+    cameras = list(dict.fromkeys(c for size in sizes for c in data[size]["cameras"]))
+    for camera in cameras:
+        cells = []
+        for whole in (True, False):
+            for size in sizes:
+                turns = data[size]["headings"]
+                found = data[size]["cameras"].get(camera)
+                if found is None:
+                    cells.append("-")
+                    continue
+                picked = [i for i, k in enumerate(turns) if (k == int(k)) == whole]
+                worst = [found["worst_row"][i] for i in picked]
+                mean = [found["mean"][i] for i in picked]
+                cells.append(f"{_spread(worst)} / {_spread(mean)}")
+        lines.append(_row([_CAMERAS.get(camera, camera), *cells]))
+    return "\n".join(lines)

@@ -1,0 +1,104 @@
+"""Every table of README.md and docs/ says what its committed result file says."""
+
+from __future__ import annotations
+
+import re
+import shutil
+
+import pytest
+
+from sfa_gym.cli.main import main
+from sfa_gym.report.tables import (
+    check_pages,
+    default_pages,
+    regenerate,
+    render,
+    repository_root,
+    table_specs,
+)
+
+ROOT = repository_root()
+README = ROOT / "README.md"
+
+
+def test_readme_and_docs_tables_match_their_result_files():
+    pages = default_pages(ROOT)
+    # the README carries one headline table per task, each generated
+    assert len(table_specs(README.read_text())) >= 4
+    mismatches = check_pages(pages, ROOT)
+    assert mismatches == [], "\n".join(str(m) for m in mismatches)
+
+
+def test_every_generated_table_names_a_committed_result_file():
+    for page in default_pages(ROOT):
+        for spec in table_specs(page.read_text()):
+            files = [w for w in spec.split()[1:] if "=" not in w]
+            assert files, f"{page}: table {spec!r} names no result file"
+            for name in files:
+                assert name.startswith("published/"), f"{page}: {name} is not under published/"
+                assert (ROOT / name).is_file(), f"{page}: {name} does not exist"
+
+
+def _edit_first_digit_of_a_table(text: str) -> tuple[str, str, str]:
+    """``text`` with one digit of the first generated table's first number row changed."""
+    start = text.index("<!-- generated: ")
+    body = text.index("-->", start) + 4
+    end = text.index("<!-- end generated -->", body)
+    rows = text[body:end].splitlines(keepends=True)
+    offset = body
+    for row in rows:
+        match = re.search(r"\d+\.\d+", row)
+        if match:
+            old = match.group()
+            new = old[:-1] + str((int(old[-1]) + 1) % 10)
+            at = offset + match.start()
+            return text[:at] + new + text[at + len(old) :], old, new
+        offset += len(row)
+    raise AssertionError("the first generated table has no decimal number")
+
+
+def test_check_names_the_page_the_table_and_the_edited_number(tmp_path):
+    page = tmp_path / "README.md"
+    edited, old, new = _edit_first_digit_of_a_table(README.read_text())
+    page.write_text(edited)
+    mismatches = check_pages([page], ROOT)
+    assert len(mismatches) == 1
+    message = str(mismatches[0])
+    assert str(page) in message
+    assert table_specs(edited)[0] in message
+    assert f"{new} where the result file gives {old}" in message
+
+
+def test_command_fails_on_an_edited_page_and_regenerating_repairs_it(tmp_path, capsys):
+    shutil.copy(README, tmp_path / "README.md")
+    page = tmp_path / "README.md"
+    assert main(["docs-tables", "--check", "--pages", str(page)]) == 0
+    page.write_text(_edit_first_digit_of_a_table(page.read_text())[0])
+    assert main(["docs-tables", "--check", "--pages", str(page)]) == 1
+    assert str(page) in capsys.readouterr().err
+    assert main(["docs-tables", "--pages", str(page)]) == 0
+    assert page.read_text() == README.read_text()
+
+
+def test_regenerate_fills_an_empty_table_from_its_file(tmp_path):
+    spec = "board published/leaderboard/quick.json tracks=train_test methods=band_means"
+    page = tmp_path / "page.md"
+    page.write_text(f"<!-- generated: {spec} -->\n<!-- end generated -->\n")
+    assert len(check_pages([page], ROOT)) == 1
+    page.write_text(regenerate(page.read_text(), ROOT))
+    assert "| `train_test` (1) | MAE % |" in page.read_text()
+    assert check_pages([page], ROOT) == []
+
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        ("nonsense published/leaderboard/quick.json", "unknown table generator 'nonsense'"),
+        ("board published/missing.json", "result file 'published/missing.json' not found"),
+        ("board", "names no result file"),
+        ("board published/leaderboard/quick.json tracks=no_such", "'no_such' has no result"),
+    ],
+)
+def test_bad_markers_are_refused_with_what_is_wrong(spec, message):
+    with pytest.raises(ValueError, match=re.escape(message)):
+        render(spec, ROOT)
