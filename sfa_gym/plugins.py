@@ -66,7 +66,6 @@ import hashlib
 import importlib.util
 import os
 import sys
-import tomllib
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -79,9 +78,9 @@ from numpy.typing import ArrayLike, NDArray
 from sfa_gym._json_types import dataclass_from_json
 from sfa_gym._types import check_views
 from sfa_gym.capabilities import Capabilities, get_capabilities
+from sfa_gym.data import checkout_root, data_folder
 
 __all__ = [
-    "PROJECT_NAME",
     "Argument",
     "Capabilities",
     "ControllerPlugin",
@@ -105,12 +104,6 @@ __all__ = [
 ]
 
 Kind = Literal["method", "controller"]
-
-PROJECT_NAME = "sfa-gym"
-"""The ``[project] name`` in the repository's ``pyproject.toml``."""
-
-SHIPPED_FOLDER = "plugins_data"
-"""The folder inside the installed package that holds the built-in plug-ins."""
 
 KIND_NAMES: Mapping[str, str] = {"method": "feature-method", "controller": "controller"}
 """How errors name a plug-in file of each kind (``no feature-method file at ...``)."""
@@ -149,24 +142,6 @@ def file_sha256(path: str | os.PathLike[str]) -> str:
 # Where the built-in plug-ins are
 
 
-def _package_dir() -> Path:
-    import sfa_gym
-
-    return Path(sfa_gym.__file__).resolve().parent
-
-
-def checkout_root(package_dir: Path | None = None) -> Path | None:
-    """The repository folder if ``package_dir`` (default: the imported ``sfa_gym``) lies in a
-    checkout of this project, else None."""
-    root = (package_dir or _package_dir()).parent
-    try:
-        with open(root / "pyproject.toml", "rb") as file:
-            name = tomllib.load(file).get("project", {}).get("name")
-    except (OSError, tomllib.TOMLDecodeError):
-        return None
-    return root if name == PROJECT_NAME else None
-
-
 def default_plugin_folder(package_dir: Path | None = None) -> tuple[Path | None, str]:
     """The folder of the built-in plug-ins, and a sentence saying where it comes from.
 
@@ -175,19 +150,20 @@ def default_plugin_folder(package_dir: Path | None = None) -> tuple[Path | None,
     plug-ins shipped inside the package; otherwise none. A ``baselines`` folder that another
     distribution put next to the package in ``site-packages`` is never looked at.
     """
-    package_dir = package_dir or _package_dir()
-    root = checkout_root(package_dir)
-    if root is not None and (root / "baselines").is_dir():
-        return root / "baselines", f"baselines of the checkout {root}"
-    shipped = package_dir / SHIPPED_FOLDER
-    if shipped.is_dir():
+    try:
+        folder = data_folder("baselines", package_dir)
+    except FileNotFoundError:
         return (
-            shipped,
-            f"the baselines shipped with sfa-gym ({shipped}); name another folder with --baselines",
+            None,
+            "no baselines: not run from a checkout and none shipped; name a folder with "
+            "--baselines",
         )
+    root = checkout_root(package_dir)
+    if root is not None and folder == root / "baselines":
+        return folder, f"baselines of the checkout {root}"
     return (
-        None,
-        "no baselines: not run from a checkout and none shipped; name a folder with --baselines",
+        folder,
+        f"the baselines shipped with sfa-gym ({folder}); name another folder with --baselines",
     )
 
 
