@@ -9,8 +9,9 @@ with the regressions it names.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, TypeVar
 
 from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols import RunSource
@@ -23,8 +24,11 @@ __all__ = [
     "SFA_REGRESSORS",
     "SlowFeatureMethod",
     "methods_with_sfa",
+    "protocol_part",
     "score_methods",
 ]
+
+C = TypeVar("C")
 
 FIGURE_REGRESSOR = "map"
 """The regression whose SFA estimates the estimate and error-map figures show."""
@@ -32,6 +36,13 @@ FIGURE_REGRESSOR = "map"
 SFA_REGRESSORS = ("linear", "quadratic", "map")
 """Regressions hierarchical SFA is evaluated with: the paper's linear one, a quadratic one and
 the map decoder."""
+
+
+def protocol_part(settings: Any, config_type: type[C]) -> C:
+    """The protocol's own ``Config`` (``config_type``) of a command's ``settings``, which are
+    that ``Config`` with the command's own fields added (world seed, SFA network, ...)."""
+    names = [f.name for f in dataclasses.fields(config_type)]  # type: ignore[arg-type]
+    return config_type(**{name: getattr(settings, name) for name in names})
 
 
 def methods_with_sfa(

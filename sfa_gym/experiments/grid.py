@@ -15,7 +15,6 @@ reported per regression by default:
 
 from __future__ import annotations
 
-import dataclasses
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -26,6 +25,7 @@ from sfa_gym._checks import check_world_seed
 from sfa_gym.experiments.common import (
     FIGURE_REGRESSOR,
     SlowFeatureMethod,
+    protocol_part,
     score_methods,
 )
 from sfa_gym.experiments.report import check_out_folder, results_header, write_results
@@ -60,8 +60,7 @@ class GridExperiment(grid.Config):
 
     def protocol(self) -> grid.Config:
         """The grid protocol's own settings."""
-        names = [f.name for f in dataclasses.fields(grid.Config)]
-        return grid.Config(**{name: getattr(self, name) for name in names})
+        return protocol_part(self, grid.Config)
 
 
 def run_grid_experiment(

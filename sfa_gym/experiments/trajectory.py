@@ -13,7 +13,6 @@ writes ``results.json`` (per method and regression ``train_test``, ``excluded``,
 
 from __future__ import annotations
 
-import dataclasses
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -24,7 +23,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym._checks import check_world_seed
-from sfa_gym.experiments.common import FIGURE_REGRESSOR, SlowFeatureMethod, score_methods
+from sfa_gym.experiments.common import (
+    FIGURE_REGRESSOR,
+    SlowFeatureMethod,
+    protocol_part,
+    score_methods,
+)
 from sfa_gym.experiments.report import check_out_folder, results_header, write_results
 from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols import trajectory
@@ -64,8 +68,7 @@ class TrajectoryExperiment(trajectory.Config):
 
     def protocol(self) -> trajectory.Config:
         """The trajectory protocol's own settings."""
-        names = [f.name for f in dataclasses.fields(trajectory.Config)]
-        return trajectory.Config(**{name: getattr(self, name) for name in names})
+        return protocol_part(self, trajectory.Config)
 
 
 def _run_summary(run: Any, used: NDArray[np.intp], inside: NDArray[np.bool_]) -> dict[str, Any]:
