@@ -60,7 +60,7 @@ def _files(results: Path) -> dict[str, bytes]:
     return {str(p.relative_to(results)): p.read_bytes() for p in sorted(results.rglob("*.json"))}
 
 
-def test_a_rerun_runs_no_finished_task_and_a_stale_one_again(tmp_path, calls):
+def test_a_rerun_runs_no_finished_task_and_a_stale_one_again(tmp_path, calls, capsys):
     tracks, results = tmp_path / "tracks", tmp_path / "results"
     method = _plugin(tmp_path / "plugins", "means")
     track = load_track(_write_track(tracks, TINY))
@@ -84,13 +84,20 @@ def test_a_rerun_runs_no_finished_task_and_a_stale_one_again(tmp_path, calls):
     task_file.unlink()  # one task lost: only it runs
     run_sweep([track], [(method, {})], results, **common)
     assert [t.world_seed for t in calls] == [100]
+    task_file.write_text(task_file.read_text()[:50])  # a damaged file: computed again
+    run_sweep([track], [(method, {})], results, **common)
+    assert [t.world_seed for t in calls] == [100, 100]
     scores = [t["scores"] for t in json.loads(first["tiny/means.json"])["tasks"]]
     assert [t["scores"] for t in json.loads(pair.read_text())["tasks"]] == scores  # same seed
 
     calls.clear()
+    capsys.readouterr()
     method.write_text(method.read_text() + "\n# another version of the method\n")
-    run_sweep([track], [(method, {})], results, **common)
+    run_sweep([track], [(method, {})], results, **{**common, "verbose": True})
     assert [t.world_seed for t in calls] == [100, 101]  # a stale method file: computed again
+    assert "world seed 101: computed again (stale: its method.sha256 differs)" in (
+        capsys.readouterr().err
+    )
     new_sha = json.loads(pair.read_text())["method"]["sha256"]
     assert new_sha != json.loads(first["tiny/means.json"])["method"]["sha256"]
     assert json.loads(task_file.read_text())["identity"]["method"]["sha256"] == new_sha
@@ -222,7 +229,7 @@ def make_method(**args):
 """
 
 
-def test_a_dead_ray_worker_is_retried_once_then_recorded(tmp_path):
+def test_on_ray_a_dead_worker_is_retried_once_and_failures_are_recorded(tmp_path):
     pytest.importorskip("ray", reason="ray is not installed (pip install 'sfa-gym[ray]')")
     import ray
 
@@ -232,6 +239,7 @@ def test_a_dead_ray_worker_is_retried_once_then_recorded(tmp_path):
     methods = [
         (_plugin(plugins, "crashes_once", CRASHES.format(counter=str(once), crashes=1)), {}),
         (_plugin(plugins, "crashes", CRASHES.format(counter=str(always), crashes=9)), {}),
+        (_plugin(plugins, "raises", RAISES), {}),
     ]
     results = tmp_path / "results"
     try:
@@ -247,7 +255,10 @@ def test_a_dead_ray_worker_is_retried_once_then_recorded(tmp_path):
             )
     finally:
         ray.shutdown()
-    ((what, failure),) = raised.value.failures
+    (what, failure), (raised_what, raised_failure) = raised.value.failures
+    assert raised_what == "tiny / raises / world seed 100"  # the plug-in's own exception,
+    assert str(raised_failure) == "RuntimeError: boom in fit"  # not retried
+    assert raised_failure.attempts == 1
     assert what == "tiny / crashes / world seed 100"
     assert failure.error_type == "WorkerCrashedError" and failure.attempts == 2
     assert "the Ray worker running the task died" in failure.message

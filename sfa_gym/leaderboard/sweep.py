@@ -49,8 +49,8 @@ class SweepError(RuntimeError):
     method) whose world seeds all finished has its result file.
 
     Attributes:
-        failures: ``(what, failure)`` per failed task, ``what`` naming the track, the method
-            and the world seed.
+        failures: ``(what, failure)`` per failed task in the order of the sweep, ``what``
+            naming the track, the method and the world seed.
         written: the result files written (complete pairs only).
     """
 
@@ -163,7 +163,7 @@ def run_sweep(
     for pair, members in pairs.items():
         if all(i in finished for i in members):
             write_pair(pair)
-    failures: list[tuple[str, TaskFailure]] = []
+    failures: dict[int, tuple[str, TaskFailure]] = {}
     commit = git_commit()
     tasks = [planned[i].task for i in todo]
     try:
@@ -173,7 +173,7 @@ def run_sweep(
             provenance = task_provenance(backend, commit)
             if isinstance(outcome, TaskFailure):
                 write_task_file(p.path, p.identity, None, outcome.describe(), provenance)
-                failures.append((p.what, outcome))
+                failures[i] = (p.what, outcome)
                 say(f"{p.what}: FAILED, {outcome}")
                 continue
             finished[i] = write_task_file(p.path, p.identity, outcome, None, provenance)
@@ -188,7 +188,7 @@ def run_sweep(
         raise
     ordered = [written[pair] for pair in sorted(written)]
     if failures:
-        raise SweepError(failures, ordered)
+        raise SweepError([failures[i] for i in sorted(failures)], ordered)  # in the sweep's order
     return ordered
 
 
