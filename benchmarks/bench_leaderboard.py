@@ -87,7 +87,12 @@ def quick_board(tracks: list[Any], methods: list[str], results: Path, cache: Run
         before, load = len(cache.renders()), _load()
         started = time.perf_counter()
         (path,) = run_sweep(
-            [track], [(method_file(method), {})], results, quick=True, cache_dir=cache.root
+            [track],
+            [(method_file(method), {})],
+            results,
+            quick=True,
+            cache_dir=cache.root,
+            resume=False,  # timed: an earlier run's task files must not be reused
         )
         seconds = time.perf_counter() - started
         renders, render_s = _render_seconds(cache, before)

@@ -3,7 +3,11 @@ tracks of ``tracks/`` and build the table (:mod:`sfa_gym.leaderboard`)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
+import signal
+import threading
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -31,7 +35,9 @@ def _parse_args(items: tuple[str, ...], option: str = "--method-args") -> dict[s
 @dataclass(frozen=True)
 class LeaderboardRun:
     """Score methods on tracks; one result file per (track, method) with a 95 % interval
-    across the track's world seeds."""
+    across the track's world seeds. Each task's result is written as it finishes, and the same
+    command run again runs only the tasks not finished yet; a failing task is reported at the
+    end (exit status 1) without losing the others."""
 
     method: tuple[str, ...]
     """feature-method plug-ins: built-in names (band_means, fft_magnitude, pca, raw_pixels,
@@ -61,9 +67,15 @@ class LeaderboardRun:
     cache: Path | None = None
     """render cache folder (default: $SFA_GYM_CACHE or ~/.cache/sfa-gym/runs); on a cluster,
     a folder every node sees"""
+    rerun: bool = False
+    """compute every task again; by default a task whose file under <results>/tasks holds its
+    finished result (same track version, method file, arguments and size) is reused, so that
+    an interrupted sweep resumes"""
 
     def run(self) -> int:
-        from sfa_gym.leaderboard.sweep import run_sweep
+        import sys
+
+        from sfa_gym.leaderboard.sweep import SweepError, run_sweep
         from sfa_gym.leaderboard.tracks import list_tracks
 
         available = {t.name: t for t in list_tracks(self.tracks)}
@@ -80,25 +92,67 @@ class LeaderboardRun:
                 )
             chosen = [available[name] for name in self.track]
         args = _parse_args(self.method_args)
-        written = run_sweep(
-            chosen,
-            [(path, args) for path in self.method],
-            self.results,
-            quick=self.quick,
-            backend=self.backend,
-            address=self.address,
-            num_cpus=self.num_cpus,
-            cache_dir=self.cache,
-            controller=None
-            if self.controller is None
-            else (self.controller, _parse_args(self.controller_args, "--controller-args")),
-        )
-        for path in written:
-            score = json.loads(path.read_text())["score"]
-            ci = score["ci95"]
-            interval = f" (95 % t-interval {ci[0]:.3f} .. {ci[1]:.3f})" if ci else ""
-            print(f"{path}: {score['mean']:.3f}{interval}")
+        stopped: list[int] = []
+        try:
+            with _stop_on_sigterm(stopped):
+                written = run_sweep(
+                    chosen,
+                    [(path, args) for path in self.method],
+                    self.results,
+                    quick=self.quick,
+                    backend=self.backend,
+                    address=self.address,
+                    num_cpus=self.num_cpus,
+                    cache_dir=self.cache,
+                    controller=None
+                    if self.controller is None
+                    else (self.controller, _parse_args(self.controller_args, "--controller-args")),
+                    resume=not self.rerun,
+                )
+        except SweepError as error:
+            _print_results(error.written)
+            print(f"error: {error}", file=sys.stderr)
+            print(
+                "the other tasks' results are written; fix the failing ones and run the same "
+                "command again: it runs only the tasks not yet finished",
+                file=sys.stderr,
+            )
+            return 1
+        except KeyboardInterrupt:
+            signum = stopped[0] if stopped else signal.SIGINT
+            print(f"stopped by {signal.Signals(signum).name}", file=sys.stderr)
+            return 128 + signum
+        _print_results(written)
         return 0
+
+
+def _print_results(paths: list[Path]) -> None:
+    """A line per result file: its mean with the interval."""
+    for path in paths:
+        score = json.loads(path.read_text())["score"]
+        ci = score["ci95"]
+        interval = f" (95 % t-interval {ci[0]:.3f} .. {ci[1]:.3f})" if ci else ""
+        print(f"{path}: {score['mean']:.3f}{interval}")
+
+
+@contextlib.contextmanager
+def _stop_on_sigterm(stopped: list[int]) -> Iterator[None]:
+    """Within: SIGTERM stops the sweep as Ctrl-C does (a KeyboardInterrupt; the signal number is
+    appended to ``stopped``), so that it says what it kept and exits with 128 + 15. The
+    finished tasks' files are on disk either way: they are written as each task finishes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signal handlers can be set in the main thread only
+        return
+
+    def stop(signum: int, frame: Any) -> None:
+        stopped.append(signum)
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,8 @@
   protocol's ``score`` with the render cache); :mod:`~sfa_gym.recording.poses`: the pose sets
   rendered in worlds with obstacles.
 - :mod:`~sfa_gym.leaderboard.backends`: running the tasks locally or on Ray.
+- :mod:`~sfa_gym.leaderboard.task_files`: each task's file, written as it finishes; a rerun of
+  a sweep (:mod:`~sfa_gym.leaderboard.sweep`) runs only the tasks not finished yet.
 - :mod:`~sfa_gym.leaderboard.results`: result files with provenance and intervals; the table.
 """
 

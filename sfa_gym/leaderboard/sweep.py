@@ -1,23 +1,75 @@
-"""The sweep: every (track, method, world seed) as a task, then one result file per (track,
-method); what ``sfa-gym leaderboard run`` does."""
+"""The sweep: every (track, method, world seed) as a task, each task's outcome written as soon as
+it finishes, and one result file per (track, method) once all of its world seeds are done; what
+``sfa-gym leaderboard run`` does.
+
+A sweep never loses finished work: each task's file (:mod:`~sfa_gym.leaderboard.task_files`) is
+written atomically the moment the task finishes, a failing task is recorded as a failure and the
+others go on, and a rerun of the same sweep reuses every finished task whose identity (track
+version, method file, arguments, size) is unchanged. A full board can therefore be run across
+several sittings: interrupt it (Ctrl-C, SIGTERM, even SIGKILL) and run the same command again.
+"""
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import sys
-import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sfa_gym.leaderboard.backends import Backend, run_tasks
+from sfa_gym.leaderboard.backends import BACKENDS, Backend, TaskFailure, run_each
 from sfa_gym.leaderboard.evaluate import HIGHER_IS_BETTER, Task
-from sfa_gym.leaderboard.results import make_result, method_label, result_path, write_result
+from sfa_gym.leaderboard.results import (
+    git_commit,
+    make_result,
+    method_label,
+    result_path,
+    write_result,
+)
+from sfa_gym.leaderboard.task_files import (
+    TASKS_FOLDER,
+    check_results_folder,
+    read_finished,
+    task_file,
+    task_identity,
+    task_provenance,
+    write_task_file,
+)
 from sfa_gym.leaderboard.tracks import Track
 from sfa_gym.plugins import file_sha256, load_controller_plugin, load_method_plugin
 
-__all__ = ["run_sweep"]
+__all__ = ["SweepError", "run_sweep"]
+
+
+class SweepError(RuntimeError):
+    """Some tasks of a sweep failed; every other task was run and written, and every (track,
+    method) whose world seeds all finished has its result file.
+
+    Attributes:
+        failures: ``(what, failure)`` per failed task in the order of the sweep, ``what``
+            naming the track, the method and the world seed.
+        written: the result files written (complete pairs only).
+    """
+
+    def __init__(self, failures: list[tuple[str, TaskFailure]], written: list[Path]) -> None:
+        self.failures = failures
+        self.written = written
+        lines = [f"{what}: {failure}" for what, failure in failures]
+        super().__init__(f"{len(failures)} task(s) failed:\n  " + "\n  ".join(lines))
+
+
+@dataclass(frozen=True)
+class _Planned:
+    """A task of the sweep with what it is (for its file and for messages) and its pair."""
+
+    task: Task
+    identity: dict[str, Any]
+    path: Path
+    pair: tuple[int, int]
+    what: str
 
 
 def run_sweep(
@@ -31,31 +83,41 @@ def run_sweep(
     num_cpus: int | None = None,
     cache_dir: str | os.PathLike[str] | None = None,
     controller: tuple[str | os.PathLike[str], Mapping[str, Any]] | None = None,
+    resume: bool = True,
     verbose: bool = True,
 ) -> list[Path]:
-    """Score every method on every track; write one result file per (track, method).
+    """Score every method on every track; write each task's file as it finishes and one result
+    file per (track, method) once all its world seeds are done.
 
     Args:
         tracks: loaded tracks (each must come from a file: tasks carry its path).
         methods: plug-in files with their arguments (``{}``: the defaults).
-        results_dir: the results folder (``<track>/<method label>[.quick].json`` inside).
+        results_dir: the results folder (``<track>/<method label>[.quick].json`` inside, and
+            the task files under ``tasks/``).
         quick: the tracks' quick size.
         backend: ``"local"`` or ``"ray"``; it, ``address`` and ``num_cpus``: see
-            :func:`~sfa_gym.leaderboard.backends.run_tasks`.
+            :func:`~sfa_gym.leaderboard.backends.run_each`.
         cache_dir: the render cache (None: the default one); must be reachable by every worker.
         controller: a controller plug-in file with its arguments, driving the rover on the
             navigation tracks instead of the tracks' gradient controller; every track must then
             be a navigation track. Results are labelled ``<method>+<controller>``.
+        resume: reuse the finished tasks of an earlier sweep (same identity, see
+            :mod:`~sfa_gym.leaderboard.task_files`); False computes every task again.
         verbose: a line on stderr per finished task.
 
     Returns:
         The result files written, in the order of ``tracks`` x ``methods``.
 
     Raises:
-        PluginError, ValueError: a method or controller file or its arguments are refused, or
-            a controller is given for a track that is not a navigation track (before any task).
+        PluginError, ValueError: a method or controller file or its arguments are refused, two
+            methods have the same label, or a controller is given for a track that is not a
+            navigation track (before any task).
+        OSError: the results folder cannot be written to (before any task).
+        SweepError: some tasks failed (after every other task ran and was written).
+        KeyboardInterrupt: interrupted; every finished task's file is kept.
     """
-    started = time.perf_counter()
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
     driver = None if controller is None else _describe_controller(tracks, *controller)
     described = []
     for path, args in methods:
@@ -64,56 +126,160 @@ def run_sweep(
         if driver is not None:
             method |= {"label": f"{method['label']}+{driver['label']}", "controller": driver}
         described.append(method)
-    cache = None if cache_dir is None else str(Path(cache_dir).resolve())
-    tasks, owners = [], []
-    for t, track in enumerate(tracks):
+    _check_labels(described)
+    for track in tracks:
         if track.path is None:
             raise ValueError(f"track {track.name!r} was not loaded from a file")
+    results = check_results_folder(results_dir)
+    say = _printer(verbose)
+
+    planned = _plan(tracks, described, driver, results, quick, cache_dir)
+    finished: dict[int, dict[str, Any]] = {}
+    todo = []
+    for i, p in enumerate(planned):
+        record, why = read_finished(p.path, p.identity) if resume else (None, "")
+        if record is not None:
+            finished[i] = record
+        else:
+            todo.append(i)
+            if why:
+                say(f"{p.what}: computed again ({why})")
+    if finished:
+        say(
+            f"{len(finished)} of {len(planned)} task(s) finished before (files under "
+            f"{results / TASKS_FOLDER}); {len(todo)} to run"
+        )
+    pairs: dict[tuple[int, int], list[int]] = {}
+    for i, p in enumerate(planned):
+        pairs.setdefault(p.pair, []).append(i)
+
+    written: dict[tuple[int, int], Path] = {}
+
+    def write_pair(pair: tuple[int, int]) -> None:
+        records = [finished[i] for i in pairs[pair]]
+        track, method = tracks[pair[0]], described[pair[1]]
+        written[pair] = _write_pair(results, track, method, quick, records)
+
+    for pair, members in pairs.items():
+        if all(i in finished for i in members):
+            write_pair(pair)
+    failures: dict[int, tuple[str, TaskFailure]] = {}
+    commit = git_commit()
+    tasks = [planned[i].task for i in todo]
+    try:
+        for j, outcome in run_each(tasks, backend, address=address, num_cpus=num_cpus):
+            i = todo[j]
+            p = planned[i]
+            provenance = task_provenance(backend, commit)
+            if isinstance(outcome, TaskFailure):
+                write_task_file(p.path, p.identity, None, outcome.describe(), provenance)
+                failures[i] = (p.what, outcome)
+                say(f"{p.what}: FAILED, {outcome}")
+                continue
+            finished[i] = write_task_file(p.path, p.identity, outcome, None, provenance)
+            say(f"{p.what}: score {outcome['scores']['score']:.3f} ({outcome['seconds']:.1f} s)")
+            if all(k in finished for k in pairs[p.pair]):
+                write_pair(p.pair)
+    except KeyboardInterrupt:
+        say(
+            f"interrupted: {len(finished)} of {len(planned)} task(s) finished and kept under "
+            f"{results / TASKS_FOLDER}; the same command resumes from them"
+        )
+        raise
+    ordered = [written[pair] for pair in sorted(written)]
+    if failures:
+        raise SweepError([failures[i] for i in sorted(failures)], ordered)  # in the sweep's order
+    return ordered
+
+
+def _plan(
+    tracks: Sequence[Track],
+    described: list[dict[str, Any]],
+    driver: dict[str, Any] | None,
+    results: Path,
+    quick: bool,
+    cache_dir: str | os.PathLike[str] | None,
+) -> list[_Planned]:
+    """The sweep's tasks, track by track, method by method, world seed by world seed."""
+    cache = None if cache_dir is None else str(Path(cache_dir).resolve())
+    planned = []
+    for t, track in enumerate(tracks):
+        assert track.path is not None
         seeds, _ = track.sized(quick)
         for m, method in enumerate(described):
             for seed in seeds:
-                tasks.append(
-                    Task(
-                        str(track.path.resolve()),
-                        method["path"],
-                        dict(method["args"]),
-                        seed,
-                        quick,
-                        cache,
-                        None if driver is None else driver["path"],
-                        {} if driver is None else dict(driver["args"]),
+                task = Task(
+                    str(track.path.resolve()),
+                    method["path"],
+                    dict(method["args"]),
+                    seed,
+                    quick,
+                    cache,
+                    None if driver is None else driver["path"],
+                    {} if driver is None else dict(driver["args"]),
+                )
+                planned.append(
+                    _Planned(
+                        task,
+                        task_identity(track, quick, seed, method, driver),
+                        task_file(results, track.name, method["label"], quick, seed),
+                        (t, m),
+                        f"{track.name} / {method['label']} / world seed {seed}",
                     )
                 )
-                owners.append((t, m))
+    return planned
 
-    def report(task: Task, output: dict[str, Any]) -> None:
+
+def _write_pair(
+    results: Path,
+    track: Track,
+    method: dict[str, Any],
+    quick: bool,
+    records: list[dict[str, Any]],
+) -> Path:
+    """Write the result file of one track and method from its tasks' records; a file that
+    already says the same is left untouched."""
+    result = make_result(
+        track=track,
+        quick=quick,
+        method=method,
+        tasks=[r["output"] for r in records],
+        higher_is_better=HIGHER_IS_BETTER[track.kind],
+        backend="+".join(sorted({r["provenance"]["backend"] for r in records})),
+        seconds=sum(r["output"]["seconds"] for r in records),
+    )
+    # the result of its tasks, not of this sitting: dated by its last task, so that a rerun
+    # that reuses every task gives the same file
+    result["provenance"]["created"] = max(r["provenance"]["created"] for r in records)
+    path = result_path(results, track.name, method["label"], quick)
+    try:
+        unchanged = json.loads(path.read_text()) == json.loads(json.dumps(result))
+    except (OSError, ValueError):
+        unchanged = False
+    if not unchanged:
+        write_result(path, result)
+    return path
+
+
+def _printer(verbose: bool) -> Any:
+    def say(line: str) -> None:
         if verbose:
-            print(
-                f"{Path(task.track_path).stem} / {Path(task.method_path).stem} / world seed "
-                f"{task.world_seed}: score {output['scores']['score']:.3f} "
-                f"({output['seconds']:.1f} s)",
-                file=sys.stderr,
-            )
+            print(line, file=sys.stderr, flush=True)
 
-    outputs = run_tasks(tasks, backend, address=address, num_cpus=num_cpus, on_done=report)
-    seconds = time.perf_counter() - started
-    written = []
-    for t, track in enumerate(tracks):
-        for m, method in enumerate(described):
-            mine = [o for o, owner in zip(outputs, owners, strict=True) if owner == (t, m)]
-            result = make_result(
-                track=track,
-                quick=quick,
-                method=method,
-                tasks=mine,
-                higher_is_better=HIGHER_IS_BETTER[track.kind],
-                backend=backend,
-                seconds=seconds,
+    return say
+
+
+def _check_labels(described: list[dict[str, Any]]) -> None:
+    """Refuse two methods with one label: they would write the same files."""
+    paths: dict[str, list[str]] = {}
+    for method in described:
+        paths.setdefault(method["label"], []).append(method["path"])
+    for label, same in paths.items():
+        if len(same) > 1:
+            raise ValueError(
+                f"{len(same)} methods of the sweep are labelled {label!r} ({', '.join(same)}); "
+                "their results would overwrite each other: rename one or give other arguments"
             )
-            path = result_path(Path(results_dir), track.name, method["label"], quick)
-            write_result(path, result)
-            written.append(path)
-    return written
 
 
 def _describe_controller(
