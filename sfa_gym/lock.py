@@ -25,6 +25,7 @@ from pathlib import Path
 __all__ = [
     "LOCK_FILE",
     "canonical_name",
+    "cpu_numerics",
     "differences",
     "installed_versions",
     "lock_path",
@@ -117,6 +118,27 @@ def differences(
         for name, locked in lock.items()
         if found.get(name) != locked
     }
+
+
+def cpu_numerics() -> dict[str, list[str]]:
+    """What of this CPU decides the last bits of the numbers, which no lock can pin: the SIMD
+    targets numpy dispatches to (``simd``: with AVX-512, float64 ``exp``, ``log``, ``arctan2``
+    and ``power`` take other kernels and round differently) and the BLAS kernels in use
+    (``blas``: OpenBLAS picks them per CPU)."""
+    from threadpoolctl import threadpool_info
+
+    try:
+        from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    except ImportError:  # numpy moved its internals: say so rather than guess
+        simd = ["unknown"]
+    else:
+        simd = [name for name in __cpu_dispatch__ if __cpu_features__.get(name)]
+    blas = [
+        f"{info.get('internal_api')} {info.get('version')} {info.get('architecture')}"
+        for info in threadpool_info()
+        if info.get("user_api") == "blas"
+    ]
+    return {"simd": simd, "blas": blas}
 
 
 def update_lock(path: str | Path | None = None) -> dict[str, tuple[str, str]]:

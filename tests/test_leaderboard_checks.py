@@ -89,10 +89,14 @@ def test_results_off_the_lock_or_off_the_reference_episodes_are_marked(tmp_path)
         gathered_entry(_nav_result(label, {100: "aaaa", 101: "bbbb"}, lock))
         for label in ("band_means", "pca", "sfa")
     ]
+    for entry in gathered:
+        entry["cpu_numerics"] = {"simd": ["X86_V3", "X86_V4"], "blas": []}
     (reference / "quick.json").write_text(json.dumps({"description": "", "results": gathered}))
     yours = tmp_path / "yours"
     _write(yours, _nav_result("band_means", {100: "aaaa", 101: "bbbb"}, lock))  # the same
-    _write(yours, _nav_result("pca", {100: "aaaa", 101: "cccc"}, off_lock))  # both differ
+    pca = _nav_result("pca", {100: "aaaa", 101: "cccc"}, off_lock)  # both differ
+    pca["provenance"]["cpu_numerics"] = {"simd": ["X86_V3"], "blas": []}
+    _write(yours, pca)
     _write(yours, _nav_result("sfa", {100: "aaaa", 101: "bbbb"}, None))  # written before
     board = load_board(yours, reference)
     marks = check_board(board, lock)
@@ -109,6 +113,7 @@ def test_results_off_the_lock_or_off_the_reference_episodes_are_marked(tmp_path)
     warnings = "\n".join(marks.warnings())
     assert f"numpy 1.0.0 (lock {lock['numpy']})" in warnings
     assert "world seeds [101]" in warnings and "1 result(s) record no package versions" in warnings
+    assert "a CPU that rounds differently: {'simd': ['X86_V3']" in warnings
     # another track version is another experiment: its episodes are not compared
     other = _nav_result("band_means", {100: "zzzz"}, lock)
     other["track"]["track_version"] = 3
@@ -142,6 +147,9 @@ def test_a_result_records_the_locked_packages_versions():
     )
     versions = result["provenance"]["versions"]
     assert versions == installed_versions() and set(versions) == set(read_lock())
+    numerics = result["provenance"]["cpu_numerics"]
+    assert set(numerics) == {"simd", "blas"} and numerics["blas"]  # numpy's OpenBLAS at least
+    assert gathered_entry(result)["cpu_numerics"] == numerics
     json.dumps(result, allow_nan=False)
 
 

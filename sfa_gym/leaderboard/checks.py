@@ -42,12 +42,16 @@ class Marks:
             versions other than the lock's.
         fingerprints: ``{cell: [world seeds]}`` for results whose episodes on those seeds differ
             from the reference result's.
+        cpus: ``{cell: (its CPU numerics, the reference's)}`` for the cells of
+            ``fingerprints`` whose CPUs round differently
+            (:func:`~sfa_gym.lock.cpu_numerics`): a likely cause.
         unrecorded: cells whose result records no package versions (written before they were
             recorded).
     """
 
     versions: dict[tuple[str, Row], dict[str, tuple[str | None, str]]] = field(default_factory=dict)
     fingerprints: dict[tuple[str, Row], list[int]] = field(default_factory=dict)
+    cpus: dict[tuple[str, Row], tuple[Any, Any]] = field(default_factory=dict)
     unrecorded: list[tuple[str, Row]] = field(default_factory=list)
 
     def mark(self, column: str, row: Row) -> str:
@@ -84,9 +88,16 @@ class Marks:
             )
             lines.append(f"{column} / {row[0]} ({row[1]}): versions differ from the lock: {found}")
         for (column, row), seeds in self.fingerprints.items():
+            cpus = self.cpus.get((column, row))
+            cause = (
+                f"; computed on a CPU that rounds differently: {cpus[0]}, the reference on "
+                f"{cpus[1]}"
+                if cpus
+                else ""
+            )
             lines.append(
                 f"{column} / {row[0]} ({row[1]}): episode fingerprints differ from the "
-                f"reference result on world seeds {seeds}"
+                f"reference result on world seeds {seeds}{cause}"
             )
         if self.unrecorded:
             lines.append(
@@ -125,4 +136,7 @@ def check_board(board: Board, lock: dict[str, str] | None = None) -> Marks:
             seeds = sorted(s for s in mine.keys() & theirs.keys() if mine[s] != theirs[s])
             if seeds:
                 marks.fingerprints[(column, row)] = seeds
+                cpus = [r.get("provenance", {}).get("cpu_numerics") for r in (result, reference)]
+                if None not in cpus and cpus[0] != cpus[1]:
+                    marks.cpus[(column, row)] = (cpus[0], cpus[1])
     return marks

@@ -9,10 +9,11 @@ A result file ``<results>/<track>/<method label>[.quick].json`` holds::
                "higher_is_better"},
      "tasks": [{"world_seed", "fit_world_seed", "scores": {...}, "seconds"}, ...],
      "provenance": {"sfa_gym_version", "git_commit", "python", "platform", "machine",
-                    "cpus", "backend", "created", "seconds", "versions"}}
+                    "cpus", "backend", "created", "seconds", "versions", "cpu_numerics"}}
 
 ``versions`` are the installed versions of the locked packages (``constraints.txt``,
-:mod:`sfa_gym.lock`) that computed the result; a navigation task's scores hold its episodes'
+:mod:`sfa_gym.lock`) that computed the result, ``cpu_numerics`` what of the CPU decides the last
+bits beside them (:func:`~sfa_gym.lock.cpu_numerics`); a navigation task's scores hold its episodes'
 ``fingerprint`` (:func:`~sfa_gym.protocols.navigation.episode_fingerprint`). The table marks the
 results whose versions differ from the lock or whose fingerprints differ from the reference
 result's (:mod:`sfa_gym.leaderboard.checks`).
@@ -148,7 +149,7 @@ def make_result(
     seconds: float,
 ) -> dict[str, Any]:
     """The result object of one track and method (see the module docstring)."""
-    from sfa_gym.lock import installed_versions
+    from sfa_gym.lock import cpu_numerics, installed_versions
 
     tasks = sorted(tasks, key=lambda t: t["world_seed"])
     return {
@@ -170,6 +171,7 @@ def make_result(
             "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "seconds": round(seconds, 2),
             "versions": installed_versions(),
+            "cpu_numerics": cpu_numerics(),
         },
     }
 
@@ -193,6 +195,8 @@ def reference_folder() -> Path:
 
 
 _GATHERED_FIELDS = ("track", "track_version", "quick", "method", "score", "per_world_seed")
+_GATHERED_PROVENANCE = ("git_commit", "backend", "created", "versions", "cpu_numerics")
+"""What a gathered entry keeps of a result's provenance."""
 
 
 def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
@@ -225,7 +229,7 @@ def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
             for seed, value in entry["per_world_seed"].items()
         ],
         "parts": entry.get("parts"),
-        "provenance": {k: entry.get(k) for k in ("git_commit", "backend", "created", "versions")},
+        "provenance": {k: entry.get(k) for k in _GATHERED_PROVENANCE},
         "_file": str(path),
         "_source": source,
     }
@@ -252,7 +256,7 @@ def gathered_entry(result: dict[str, Any]) -> dict[str, Any]:
         "per_world_seed": {str(t["world_seed"]): t["scores"]["score"] for t in tasks},
         "parts": mean_parts(result),
         "task_seconds": [t.get("seconds") for t in tasks],
-        **{k: provenance.get(k) for k in ("backend", "git_commit", "created", "versions")},
+        **{k: provenance.get(k) for k in _GATHERED_PROVENANCE},
         **({"fingerprints": fingerprints} if fingerprints else {}),
     }
 
