@@ -123,6 +123,7 @@ class LeaderboardTable:
 
         from sfa_gym.leaderboard.checks import check_board
         from sfa_gym.leaderboard.results import (
+            REFERENCE,
             YOURS,
             load_board,
             markdown_table,
@@ -134,7 +135,7 @@ class LeaderboardTable:
         board = load_board(self.results, reference)
         if not any(source == YOURS for _, source in board.rows):
             print(f"no results of yours under {self.results}", file=sys.stderr)
-        marks = check_board(board)
+        marks = check_board(board, reference=REFERENCE)
         for line in marks.warnings():
             print(f"warning: {line}", file=sys.stderr)
         if self.markdown:

@@ -11,10 +11,11 @@ recorded is not marked: nothing says it differs, and :func:`warnings` counts it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    from sfa_gym.leaderboard.results import Board, Row
+Row = tuple[str, str]
+"""A row of the table: ``(method label, source)``
+(:data:`~sfa_gym.leaderboard.results.Row`)."""
 
 __all__ = ["FINGERPRINT_MARK", "VERSIONS_MARK", "Marks", "check_board", "fingerprints"]
 
@@ -107,12 +108,14 @@ class Marks:
         return lines
 
 
-def check_board(board: Board, lock: dict[str, str] | None = None) -> Marks:
-    """The :class:`Marks` of ``board``: each result's versions against ``lock`` (default: the
-    lock of this checkout or installation), each result's fingerprints against the reference
-    row of the same method in the same column (the column is the track and its size) at the
-    same track version."""
-    from sfa_gym.leaderboard.results import REFERENCE
+def check_board(
+    board: Any, lock: dict[str, str] | None = None, reference: str = "reference"
+) -> Marks:
+    """The :class:`Marks` of ``board`` (a :class:`~sfa_gym.leaderboard.results.Board`): each
+    result's versions against ``lock`` (default: the lock of this checkout or installation),
+    each result's fingerprints against the row of the same method from the source
+    ``reference`` (:data:`~sfa_gym.leaderboard.results.REFERENCE`) in the same column (the
+    column is the track and its size) at the same track version."""
     from sfa_gym.lock import differences, read_lock
 
     lock = read_lock() if lock is None else lock
@@ -127,16 +130,18 @@ def check_board(board: Board, lock: dict[str, str] | None = None) -> Marks:
                 changed = differences(versions, lock)
                 if changed:
                     marks.versions[(column, row)] = changed
-            reference = cells.get((row[0], REFERENCE))
-            if row[1] == REFERENCE or reference is None:
+            theirs = cells.get((row[0], reference))
+            if row[1] == reference or theirs is None:
                 continue
-            if reference["track"].get("track_version") != result["track"].get("track_version"):
+            if theirs["track"].get("track_version") != result["track"].get("track_version"):
                 continue
-            theirs, mine = fingerprints(reference), fingerprints(result)
-            seeds = sorted(s for s in mine.keys() & theirs.keys() if mine[s] != theirs[s])
+            theirs_prints, mine = fingerprints(theirs), fingerprints(result)
+            seeds = sorted(
+                s for s in mine.keys() & theirs_prints.keys() if mine[s] != theirs_prints[s]
+            )
             if seeds:
                 marks.fingerprints[(column, row)] = seeds
-                cpus = [r.get("provenance", {}).get("cpu_numerics") for r in (result, reference)]
+                cpus = [r.get("provenance", {}).get("cpu_numerics") for r in (result, theirs)]
                 if None not in cpus and cpus[0] != cpus[1]:
                     marks.cpus[(column, row)] = (cpus[0], cpus[1])
     return marks

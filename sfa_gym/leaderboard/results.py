@@ -41,7 +41,7 @@ import subprocess
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -50,8 +50,6 @@ from sfa_gym._files import write_json_atomic
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
-
-    from sfa_gym.leaderboard.checks import Marks
 
 __all__ = [
     "FORMAT",
@@ -403,15 +401,20 @@ def _parts_tables(board: Board) -> list[str]:
     return lines
 
 
-def markdown_table(board: Board, marks: Marks | None = None) -> str:
-    """The markdown of ``LEADERBOARD.md``: the scores (a row per method and source, a column
-    per track; a cell is the mean over the world seeds with its t-interval, marked when its
-    versions or episodes differ: ``marks``, default :func:`~sfa_gym.leaderboard.checks.check_board`
-    of ``board``), the parts of the outdoor tracks' scores, and each track's version, world
-    seeds and commit."""
-    from sfa_gym.leaderboard.checks import check_board
+class CellMarks(Protocol):
+    """Marks on the table's cells and their footnotes
+    (:class:`~sfa_gym.leaderboard.checks.Marks`)."""
 
-    marks = check_board(board) if marks is None else marks
+    def mark(self, column: str, row: Row) -> str: ...
+
+    def footnotes(self) -> list[str]: ...
+
+
+def markdown_table(board: Board, marks: CellMarks | None = None) -> str:
+    """The markdown of ``LEADERBOARD.md``: the scores (a row per method and source, a column
+    per track; a cell is the mean over the world seeds with its t-interval, with its ``marks``:
+    see :func:`~sfa_gym.leaderboard.checks.check_board`), the parts of the outdoor tracks'
+    scores, and each track's version, world seeds and commit."""
     lines = [
         "# Leaderboard",
         "",
@@ -425,13 +428,14 @@ def markdown_table(board: Board, marks: Marks | None = None) -> str:
     ]
     for row in board.rows:
         cells = [
-            _cell(board.cells[t][row]["score"]) + marks.mark(t, row)
+            _cell(board.cells[t][row]["score"]) + (marks.mark(t, row) if marks else "")
             if row in board.cells[t]
             else "-"
             for t in board.tracks
         ]
         lines.append(f"| {row[0]} | {row[1]} | " + " | ".join(cells) + " |")
-    return "\n".join(lines + marks.footnotes() + detail_tables(board)) + "\n"
+    footnotes = marks.footnotes() if marks else []
+    return "\n".join(lines + footnotes + detail_tables(board)) + "\n"
 
 
 def detail_tables(board: Board) -> list[str]:
@@ -499,7 +503,7 @@ def write_table(
     results_dir: str | os.PathLike[str],
     out: str | os.PathLike[str] | None = None,
     reference: str | os.PathLike[str] | None = None,
-    marks: Marks | None = None,
+    marks: CellMarks | None = None,
 ) -> str:
     """Write ``LEADERBOARD.md`` and ``leaderboard.png`` (into ``out``, default the results
     folder) from every result under ``results_dir``, and
