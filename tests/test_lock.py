@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import importlib.metadata
 import re
+import subprocess
+import sys
 import tomllib
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -76,11 +79,25 @@ def test_locked_versions_satisfy_pyprojects_ranges():
     assert checked >= 10
 
 
-def test_the_wheel_carries_the_lock():
-    build = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["hatch"]["build"]
-    assert build["targets"]["wheel"]["force-include"]["constraints.txt"] == (
-        "sfa_gym/constraints.txt"
+def test_the_wheel_carries_the_lock_and_finds_it_outside_a_checkout(tmp_path):
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(ROOT)],
+        check=True,
     )
+    (wheel,) = tmp_path.glob("sfa_gym-*.whl")
+    zipfile.ZipFile(wheel).extractall(tmp_path / "site")
+    assert (tmp_path / "site" / "sfa_gym" / "constraints.txt").read_text() == (
+        ROOT / "constraints.txt"
+    ).read_text()
+    found = subprocess.run(
+        [sys.executable, "-c", "from sfa_gym.lock import lock_path; print(lock_path())"],
+        cwd=tmp_path,
+        env={"PYTHONPATH": str(tmp_path / "site"), "PATH": ""},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert found.stdout.strip() == str(tmp_path / "site" / "sfa_gym" / "constraints.txt")
 
 
 def test_differences_name_each_package_off_the_lock():
