@@ -59,9 +59,10 @@ FINGERPRINT_DECIMALS = 6
 """Decimals (of a metre, of a radian) the episode fingerprint rounds poses to: 1e-6 m. The physics
 defines a pose no finer than its constraint solver's tolerance (MuJoCo's default 1e-8) and a
 repeated run differs at most in the last bits of a float reduction (1e-15 m in a 10 m arena), so
-a micrometre is above everything the physics leaves open; a real change of the episodes (another
-MuJoCo, controller or episode sampling) moves the rover by a fraction of a 5 ms physics step at
-up to 0.4 m/s (2 mm), a thousand times more."""
+a micrometre is above everything the physics leaves open. A real change of the episodes moves a
+stop by far more: one 5 ms physics step at 0.4 m/s is 2 mm, and another MuJoCo or a CPU that
+rounds ``exp`` differently ends some maze and obstacle episodes 8-25 cm apart
+(docs/leaderboard.md)."""
 
 TrainOrder = Literal["hilbert", "walk"]
 Headings = Literal["zero", "random"]
@@ -392,7 +393,7 @@ def episode_fingerprint(
     """A hash of the episodes: each one's seed, start and goal pose, stop position (the last
     point of its path) and step count, the coordinates rounded to ``decimals``
     (:data:`FINGERPRINT_DECIMALS`). Two runs of the same episodes that agree in it drove the
-    same way; a changed MuJoCo, controller or episode sampling changes it.
+    same way; a changed MuJoCo, controller, episode sampling or CPU rounding changes it.
 
     Returns:
         The first 16 hex digits of the SHA-256 of the rounded episodes.
