@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Set up sfa-gym on a fresh Debian/Ubuntu machine: the system libraries for headless
-# rendering (EGL, OSMesa fallback), a virtual environment in .venv, and the package.
+# rendering (EGL, OSMesa fallback), a virtual environment in .venv, and the package with the
+# locked versions of the packages its numbers depend on (constraints.txt).
 #
 #   bash scripts/setup.sh          the library and its command line (sfa-gym)
 #   bash scripts/setup.sh test     also the test dependencies (pytest, hypothesis,
@@ -47,9 +48,11 @@ if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 11))'; then
 fi
 [ -x .venv/bin/python ] || "$python" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip
+# every install goes through the lock, so that a fresh clone computes with the versions the
+# committed results were computed with (regenerate it: .venv/bin/python -m sfa_gym.lock)
 if [ -n "$extras" ]; then
-    .venv/bin/python -m pip install -q -e ".[$extras]"
+    .venv/bin/python -m pip install -q -c constraints.txt -e ".[$extras]"
 else
-    .venv/bin/python -m pip install -q -e .
+    .venv/bin/python -m pip install -q -c constraints.txt -e .
 fi
 echo "sfa-gym is set up in .venv ($(.venv/bin/python -c 'import sfa_gym; print(sfa_gym.__version__)'))"

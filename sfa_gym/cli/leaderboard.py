@@ -158,7 +158,10 @@ def _stop_on_sigterm(stopped: list[int]) -> Iterator[None]:
 @dataclass(frozen=True)
 class LeaderboardTable:
     """The table of your results beside the committed reference results (published/leaderboard),
-    each row labelled by its source: LEADERBOARD.md and leaderboard.png, or --markdown."""
+    each row labelled by its source: LEADERBOARD.md and leaderboard.png, or --markdown. A cell
+    is marked † when its result was computed with package versions other than the lock's
+    (constraints.txt), ‡ when its navigation episodes differ from the reference result's (episode
+    fingerprints); each marked result is named on stderr."""
 
     results: Path = Path("results/leaderboard")
     """your results folder (searched recursively)"""
@@ -172,7 +175,9 @@ class LeaderboardTable:
     def run(self) -> int:
         import sys
 
+        from sfa_gym.leaderboard.checks import check_board
         from sfa_gym.leaderboard.results import (
+            REFERENCE,
             YOURS,
             load_board,
             markdown_table,
@@ -184,10 +189,13 @@ class LeaderboardTable:
         board = load_board(self.results, reference)
         if not any(source == YOURS for _, source in board.rows):
             print(f"no results of yours under {self.results}", file=sys.stderr)
+        marks = check_board(board, reference=REFERENCE)
+        for line in marks.warnings():
+            print(f"warning: {line}", file=sys.stderr)
         if self.markdown:
-            print(markdown_table(board), end="")
+            print(markdown_table(board, marks), end="")
         else:
-            print(write_table(self.results, self.out, reference), end="")
+            print(write_table(self.results, self.out, reference, marks), end="")
         return 0
 
 

@@ -9,7 +9,14 @@ A result file ``<results>/<track>/<method label>[.quick].json`` holds::
                "higher_is_better"},
      "tasks": [{"world_seed", "fit_world_seed", "scores": {...}, "seconds"}, ...],
      "provenance": {"sfa_gym_version", "git_commit", "python", "platform", "machine",
-                    "cpus", "backend", "created", "seconds"}}
+                    "cpus", "backend", "created", "seconds", "versions", "cpu_numerics"}}
+
+``versions`` are the installed versions of the locked packages (``constraints.txt``,
+:mod:`sfa_gym.lock`) that computed the result, ``cpu_numerics`` what of the CPU decides the last
+bits beside them (:func:`~sfa_gym.lock.cpu_numerics`); a navigation task's scores hold its episodes'
+``fingerprint`` (:func:`~sfa_gym.protocols.navigation.episode_fingerprint`). The table marks the
+results whose versions differ from the lock or whose fingerprints differ from the reference
+result's (:mod:`sfa_gym.leaderboard.checks`).
 
 The interval is a Student-t 95 % interval of the mean across the scoring world seeds (with one
 seed there is none: ``null``). Scores are computed per world seed, so the result does not
@@ -18,8 +25,9 @@ depend on which backend ran which seed.
 The committed reference results (:func:`reference_folder`, ``published/leaderboard/``) may also
 be *gathered* files: ``{"description", "results": [...]}`` with one summary per track and method
 (``track``, ``track_version``, ``quick``, ``method``, ``score``, ``per_world_seed``, ``parts``,
-``git_commit``, ...). :func:`load_results` reads both kinds into the shape of a result file, and
-the table shows each row's source: your results beside the reference ones.
+``git_commit``, ``versions``, ``fingerprints`` (``{world seed: fingerprint}``), ...;
+:func:`gathered_entry` writes one). :func:`load_results` reads both kinds into the shape of a
+result file, and the table shows each row's source: your results beside the reference ones.
 """
 
 from __future__ import annotations
@@ -33,7 +41,7 @@ import subprocess
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -52,6 +60,7 @@ __all__ = [
     "arrange",
     "detail_tables",
     "draw_chart",
+    "gathered_entry",
     "git_commit",
     "load_board",
     "load_results",
@@ -138,6 +147,8 @@ def make_result(
     seconds: float,
 ) -> dict[str, Any]:
     """The result object of one track and method (see the module docstring)."""
+    from sfa_gym.lock import cpu_numerics, installed_versions
+
     tasks = sorted(tasks, key=lambda t: t["world_seed"])
     return {
         "format": FORMAT,
@@ -157,6 +168,8 @@ def make_result(
             "backend": backend,
             "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "seconds": round(seconds, 2),
+            "versions": installed_versions(),
+            "cpu_numerics": cpu_numerics(),
         },
     }
 
@@ -180,6 +193,8 @@ def reference_folder() -> Path:
 
 
 _GATHERED_FIELDS = ("track", "track_version", "quick", "method", "score", "per_world_seed")
+_GATHERED_PROVENANCE = ("git_commit", "backend", "created", "versions", "cpu_numerics")
+"""What a gathered entry keeps of a result's provenance."""
 
 
 def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
@@ -194,6 +209,7 @@ def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
             f"{path}: an entry of 'results' lacks {missing}; expected an object with "
             f"{list(_GATHERED_FIELDS)}"
         )
+    fingerprints = entry.get("fingerprints") or {}
     return {
         "track": {
             "name": entry["track"],
@@ -203,13 +219,43 @@ def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
         "method": {"label": entry["method"], "sha256": entry.get("method_sha256")},
         "score": entry["score"],
         "tasks": [
-            {"world_seed": int(seed), "scores": {"score": value}}
+            {
+                "world_seed": int(seed),
+                "scores": {"score": value}
+                | ({"fingerprint": fingerprints[seed]} if seed in fingerprints else {}),
+            }
             for seed, value in entry["per_world_seed"].items()
         ],
         "parts": entry.get("parts"),
-        "provenance": {k: entry.get(k) for k in ("git_commit", "backend", "created")},
+        "provenance": {k: entry.get(k) for k in _GATHERED_PROVENANCE},
         "_file": str(path),
         "_source": source,
+    }
+
+
+def gathered_entry(result: dict[str, Any]) -> dict[str, Any]:
+    """The entry of a gathered file (see the module docstring) that keeps what the table reads
+    of the result file ``result``: the score, each seed's score, the parts' means, the
+    provenance, the package versions and the navigation tasks' episode fingerprints."""
+    tasks = result["tasks"]
+    provenance = result["provenance"]
+    fingerprints = {
+        str(t["world_seed"]): t["scores"]["fingerprint"]
+        for t in tasks
+        if "fingerprint" in t["scores"]
+    }
+    return {
+        "track": result["track"]["name"],
+        "track_version": result["track"]["track_version"],
+        "quick": bool(result["track"]["quick"]),
+        "method": result["method"]["label"],
+        "method_sha256": result["method"].get("sha256"),
+        "score": result["score"],
+        "per_world_seed": {str(t["world_seed"]): t["scores"]["score"] for t in tasks},
+        "parts": mean_parts(result),
+        "task_seconds": [t.get("seconds") for t in tasks],
+        **{k: provenance.get(k) for k in _GATHERED_PROVENANCE},
+        **({"fingerprints": fingerprints} if fingerprints else {}),
     }
 
 
@@ -355,10 +401,20 @@ def _parts_tables(board: Board) -> list[str]:
     return lines
 
 
-def markdown_table(board: Board) -> str:
+class CellMarks(Protocol):
+    """Marks on the table's cells and their footnotes
+    (:class:`~sfa_gym.leaderboard.checks.Marks`)."""
+
+    def mark(self, column: str, row: Row) -> str: ...
+
+    def footnotes(self) -> list[str]: ...
+
+
+def markdown_table(board: Board, marks: CellMarks | None = None) -> str:
     """The markdown of ``LEADERBOARD.md``: the scores (a row per method and source, a column
-    per track; a cell is the mean over the world seeds with its t-interval), the parts of the
-    outdoor tracks' scores, and each track's version, world seeds and commit."""
+    per track; a cell is the mean over the world seeds with its t-interval, with its ``marks``:
+    see :func:`~sfa_gym.leaderboard.checks.check_board`), the parts of the outdoor tracks'
+    scores, and each track's version, world seeds and commit."""
     lines = [
         "# Leaderboard",
         "",
@@ -372,11 +428,14 @@ def markdown_table(board: Board) -> str:
     ]
     for row in board.rows:
         cells = [
-            _cell(board.cells[t][row]["score"]) if row in board.cells[t] else "-"
+            _cell(board.cells[t][row]["score"]) + (marks.mark(t, row) if marks else "")
+            if row in board.cells[t]
+            else "-"
             for t in board.tracks
         ]
         lines.append(f"| {row[0]} | {row[1]} | " + " | ".join(cells) + " |")
-    return "\n".join(lines + detail_tables(board)) + "\n"
+    footnotes = marks.footnotes() if marks else []
+    return "\n".join(lines + footnotes + detail_tables(board)) + "\n"
 
 
 def detail_tables(board: Board) -> list[str]:
@@ -444,11 +503,13 @@ def write_table(
     results_dir: str | os.PathLike[str],
     out: str | os.PathLike[str] | None = None,
     reference: str | os.PathLike[str] | None = None,
+    marks: CellMarks | None = None,
 ) -> str:
     """Write ``LEADERBOARD.md`` and ``leaderboard.png`` (into ``out``, default the results
     folder) from every result under ``results_dir``, and
     beside them those under ``reference`` (the committed reference results, see
-    :func:`reference_folder`; None: none); returns the markdown text.
+    :func:`reference_folder`; None: none), its cells marked by ``marks`` (see
+    :func:`markdown_table`); returns the markdown text.
 
     Raises:
         ValueError: no results in either folder.
@@ -461,7 +522,7 @@ def write_table(
     board = load_board(results_dir, reference)
     out_dir = Path(out) if out is not None else Path(results_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    text = markdown_table(board)
+    text = markdown_table(board, marks)
     (out_dir / "LEADERBOARD.md").write_text(text)
     fig = draw_chart(board)
     fig.savefig(out_dir / "leaderboard.png", dpi=90)

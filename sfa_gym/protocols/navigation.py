@@ -38,9 +38,11 @@ from sfa_gym.protocols.settings import EnvId, check_choice, check_env_id
 
 __all__ = [
     "FIELD_BATCH",
+    "FINGERPRINT_DECIMALS",
     "Config",
     "Scores",
     "TrainingRun",
+    "episode_fingerprint",
     "feature_field",
     "fit_features",
     "gradient_controller",
@@ -52,6 +54,15 @@ __all__ = [
 
 FIELD_BATCH = 256
 """Panoramas transformed at a time while filling a field (bounds the memory)."""
+
+FINGERPRINT_DECIMALS = 6
+"""Decimals (of a metre, of a radian) the episode fingerprint rounds poses to: 1e-6 m. The physics
+defines a pose no finer than its constraint solver's tolerance (MuJoCo's default 1e-8) and a
+repeated run differs at most in the last bits of a float reduction (1e-15 m in a 10 m arena), so
+a micrometre is above everything the physics leaves open. A real change of the episodes moves a
+stop by far more: one 5 ms physics step at 0.4 m/s is 2 mm, and another MuJoCo or a CPU that
+rounds ``exp`` differently ends some maze and obstacle episodes 8-25 cm apart
+(docs/leaderboard.md)."""
 
 TrainOrder = Literal["hilbert", "walk"]
 Headings = Literal["zero", "random"]
@@ -351,7 +362,8 @@ class Scores:
 
     def task_scores(self) -> dict[str, Any]:
         """A leaderboard task's scores (JSON types): ``score`` (the success rate), ``spl``, the
-        episode count, the interior episodes' scores, training positions and field nodes."""
+        episode count, the interior episodes' scores, training positions, field nodes and the
+        episodes' ``fingerprint`` (:func:`episode_fingerprint`)."""
         from sfa_gym.navigation.evaluate import summarize
 
         summary = summarize(self.episodes)
@@ -371,7 +383,40 @@ class Scores:
                 "nodes": self.field.metadata["n_nodes"],
                 "free": self.field.metadata["n_free"],
             },
+            "fingerprint": episode_fingerprint(self.episodes),
         }
+
+
+def episode_fingerprint(
+    episodes: list[dict[str, Any]], decimals: int = FINGERPRINT_DECIMALS
+) -> str:
+    """A hash of the episodes: each one's seed, start and goal pose, stop position (the last
+    point of its path) and step count, the coordinates rounded to ``decimals``
+    (:data:`FINGERPRINT_DECIMALS`). Two runs of the same episodes that agree in it drove the
+    same way; a changed MuJoCo, controller, episode sampling or CPU rounding changes it.
+
+    Returns:
+        The first 16 hex digits of the SHA-256 of the rounded episodes.
+    """
+    import hashlib
+    import json
+
+    def rounded(values: Any) -> list[str]:
+        # + 0.0 turns a rounded -0.0 into 0.0: both signs of zero are the same pose
+        return [f"{round(float(v), decimals) + 0.0:.{decimals}f}" for v in values]
+
+    rows = [
+        [
+            int(e["seed"]),
+            rounded(e["start"]),
+            rounded(e["goal"]),
+            rounded(np.asarray(e["path"], dtype=np.float64)[-1]),
+            int(e["steps"]),
+        ]
+        for e in episodes
+    ]
+    text = json.dumps(rows, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def prepare(
