@@ -17,11 +17,10 @@ from sfa_gym.leaderboard.results import (
     FORMAT,
     SCHEMA_VERSION,
     gathered_entry,
-    load_board,
     load_results,
     make_result,
-    markdown_table,
 )
+from sfa_gym.leaderboard.table import load_board, markdown_table
 from sfa_gym.leaderboard.tracks import load_track
 from sfa_gym.lock import installed_versions, read_lock
 from sfa_gym.protocols.navigation import FINGERPRINT_DECIMALS, episode_fingerprint

@@ -189,8 +189,9 @@ def test_bad_env_kwargs_are_named(env_kwargs, error, message):
 
 
 def test_tiny_outdoor_tracks_score_band_means_and_share_the_drive(tmp_path):
-    from sfa_gym.leaderboard.results import FORMAT, load_results, write_table
+    from sfa_gym.leaderboard.results import FORMAT, load_results
     from sfa_gym.leaderboard.sweep import run_sweep
+    from sfa_gym.leaderboard.table import write_table
     from sfa_gym.leaderboard.tracks import load_track
 
     folder = tmp_path / "tracks"

@@ -90,3 +90,31 @@ def test_a_gathered_entry_without_a_field_is_named(tmp_path):
     )
     with pytest.raises(ValueError, match=r"board.json.*lacks \['track_version', 'quick'"):
         load_results(tmp_path)
+
+
+def test_publish_gathers_a_run_into_one_file_the_table_reads_alike(tmp_path, capsys):
+    results = tmp_path / "results"
+    for track, label, seeds in (
+        ("few_labels", "mine", {100: 3.25, 101: 3.75}),
+        ("train_test", "mine", {100: 1.5, 101: 2.5}),
+    ):
+        path = results / track / f"{label}.quick.json"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(_result(track, label, seeds)))
+    out = tmp_path / "published" / "quick.json"
+    out.parent.mkdir()
+    args = ["leaderboard", "publish", "--results", str(results), "--out", str(out)]
+    assert main(args) == 0
+    assert "2 results" in capsys.readouterr().out
+    gathered = json.loads(out.read_text())
+    assert [e["track"] for e in gathered["results"]] == ["few_labels", "train_test"]
+    again = {r["track"]["name"]: r for r in load_results(out.parent, REFERENCE)}
+    assert again["train_test"]["score"]["mean"] == 2.0
+    assert [t["scores"]["score"] for t in again["few_labels"]["tasks"]] == [3.25, 3.75]
+
+    # two runs of the same (track, size, method) in one folder: refused, not mixed
+    twin = results / "copy" / "few_labels" / "mine.quick.json"
+    twin.parent.mkdir(parents=True)
+    twin.write_text(json.dumps(_result("few_labels", "mine", {100: 9.0})))
+    assert main(args) != 0
+    assert "few_labels" in capsys.readouterr().err

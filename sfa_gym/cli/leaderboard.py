@@ -176,14 +176,8 @@ class LeaderboardTable:
         import sys
 
         from sfa_gym.leaderboard.checks import check_board
-        from sfa_gym.leaderboard.results import (
-            REFERENCE,
-            YOURS,
-            load_board,
-            markdown_table,
-            reference_folder,
-            write_table,
-        )
+        from sfa_gym.leaderboard.results import REFERENCE, YOURS, reference_folder
+        from sfa_gym.leaderboard.table import load_board, markdown_table, write_table
 
         reference = reference_folder() if self.reference else None
         board = load_board(self.results, reference)
@@ -200,12 +194,39 @@ class LeaderboardTable:
 
 
 @dataclass(frozen=True)
+class LeaderboardPublish:
+    """Gather the result files of a results folder into one file, the form in which reference
+    results are published (published/leaderboard/quick.json); the docs' board tables are
+    generated from it (sfa-gym docs-tables)."""
+
+    out: Path
+    """the gathered file to write (e.g. published/leaderboard/quick.json)"""
+    results: Path = Path("results/leaderboard")
+    """the results folder of the run (searched recursively)"""
+    description: str = (
+        "Per track and method the mean score over the track's world seeds, the t-interval, each "
+        "seed's score, the parts' means and the provenance of the result file. Localization: "
+        "MAE % (lower is better); navigation: success rate."
+    )
+    """what the file holds, stored in it"""
+
+    def run(self) -> int:
+        from sfa_gym.leaderboard.results import write_gathered
+
+        n = write_gathered(self.results, self.out, self.description)
+        print(f"{n} results of {self.results} gathered into {self.out}")
+        return 0
+
+
+@dataclass(frozen=True)
 class Leaderboard:
-    """The leaderboard: score methods on versioned tracks (run), build the table (table)."""
+    """The leaderboard: score methods on versioned tracks (run), build the table (table), gather
+    a run's results into one published file (publish)."""
 
     command: (
         Annotated[LeaderboardRun, tyro.conf.subcommand("run")]
         | Annotated[LeaderboardTable, tyro.conf.subcommand("table")]
+        | Annotated[LeaderboardPublish, tyro.conf.subcommand("publish")]
     )
 
     def run(self) -> int:

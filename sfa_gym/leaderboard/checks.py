@@ -15,7 +15,7 @@ from typing import Any
 
 Row = tuple[str, str]
 """A row of the table: ``(method label, source)``
-(:data:`~sfa_gym.leaderboard.results.Row`)."""
+(:data:`~sfa_gym.leaderboard.table.Row`)."""
 
 __all__ = ["FINGERPRINT_MARK", "VERSIONS_MARK", "Marks", "check_board", "fingerprints"]
 
@@ -111,7 +111,7 @@ class Marks:
 def check_board(
     board: Any, lock: dict[str, str] | None = None, reference: str = "reference"
 ) -> Marks:
-    """The :class:`Marks` of ``board`` (a :class:`~sfa_gym.leaderboard.results.Board`): each
+    """The :class:`Marks` of ``board`` (a :class:`~sfa_gym.leaderboard.table.Board`): each
     result's versions against ``lock`` (default: the lock of this checkout or installation),
     each result's fingerprints against the row of the same method from the source
     ``reference`` (:data:`~sfa_gym.leaderboard.results.REFERENCE`) in the same column (the

@@ -2,7 +2,7 @@
 
 The docs' leaderboard results page (:func:`results_page`) is generated at build time by the
 MkDocs hook ``docs/hooks/leaderboard.py``, from the same
-:func:`~sfa_gym.leaderboard.results.arrange` as the markdown table of ``sfa-gym leaderboard
+:func:`~sfa_gym.leaderboard.table.arrange` as the markdown table of ``sfa-gym leaderboard
 table``, so the page shows what the table shows. The HTML needs nothing from the network: the
 sorting is a few lines of plain JavaScript in the page, the chart an inline SVG.
 """
@@ -15,15 +15,8 @@ from html import escape
 from pathlib import Path
 from typing import Any
 
-from sfa_gym.leaderboard.results import (
-    REFERENCE,
-    Board,
-    arrange,
-    detail_tables,
-    draw_chart,
-    load_results,
-    reference_folder,
-)
+from sfa_gym.leaderboard.results import REFERENCE, load_results, reference_folder
+from sfa_gym.leaderboard.table import Board, arrange, detail_tables, draw_chart
 
 __all__ = ["board_html", "chart_svg", "results_page", "sorting"]
 
@@ -107,7 +100,7 @@ def _table(board: Board) -> str:
 
 
 def chart_svg(board: Board) -> str:
-    """The chart of :func:`~sfa_gym.leaderboard.results.draw_chart` as inline SVG (text kept
+    """The chart of :func:`~sfa_gym.leaderboard.table.draw_chart` as inline SVG (text kept
     as text, no date, so that the same results give the same SVG)."""
     import matplotlib
 

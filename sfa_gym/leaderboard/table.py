@@ -1,0 +1,253 @@
+"""The leaderboard table: results (:mod:`sfa_gym.leaderboard.results`) arranged as a column per
+track and a row per method and source (yours beside the committed reference), written as
+markdown (LEADERBOARD.md), detail tables and a chart (leaderboard.png)."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+
+from sfa_gym.leaderboard.results import REFERENCE, YOURS, load_results, mean_parts
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = [
+    "Board",
+    "CellMarks",
+    "Row",
+    "arrange",
+    "detail_tables",
+    "draw_chart",
+    "load_board",
+    "markdown_table",
+    "write_table",
+]
+
+
+def load_board(
+    results_dir: str | os.PathLike[str], reference: str | os.PathLike[str] | None = None
+) -> Board:
+    """Your results under ``results_dir`` and, beside them, the reference results under
+    ``reference`` (None, or the same folder: none), arranged as the table shows them.
+
+    Raises:
+        ValueError: no results in either folder.
+    """
+    results = load_results(results_dir)
+    if reference is not None and Path(reference).resolve() != Path(results_dir).resolve():
+        results += load_results(reference, REFERENCE)
+    if not results:
+        where = f"{results_dir} or {reference}" if reference is not None else str(results_dir)
+        raise ValueError(f"no leaderboard results under {where}")
+    return arrange(results)
+
+
+Row = tuple[str, str]
+"""A row of the table: ``(method label, source)``."""
+
+
+@dataclass(frozen=True)
+class Board:
+    """Results as the table shows them: a column per track (full size and quick size kept
+    apart, ``"<track> (quick)"``), a row per method and source; ``cells[track][row]`` is the
+    result."""
+
+    cells: dict[str, dict[Row, dict[str, Any]]]
+    tracks: list[str]
+    rows: list[Row]
+
+    @property
+    def several_sources(self) -> bool:
+        """Whether the rows come from more than one source (yours and the reference)."""
+        return len({source for _, source in self.rows}) > 1
+
+    def name(self, row: Row) -> str:
+        """The row's name in the chart: the method, with its source when there are several."""
+        return f"{row[0]} ({row[1]})" if self.several_sources else row[0]
+
+    def higher_is_better(self, track: str) -> bool:
+        """Whether a higher score is better on ``track`` (navigation: success rate)."""
+        return next(iter(self.cells[track].values()))["score"]["higher_is_better"]
+
+
+def arrange(results: list[dict[str, Any]]) -> Board:
+    """The :class:`Board` of ``results``; your rows before the reference rows of a method.
+
+    Raises:
+        ValueError: no results.
+    """
+    if not results:
+        raise ValueError("no leaderboard results to show")
+    cells: dict[str, dict[Row, dict[str, Any]]] = {}
+    for r in results:
+        key = r["track"]["name"] + (" (quick)" if r["track"]["quick"] else "")
+        cells.setdefault(key, {})[(r["method"]["label"], r.get("_source", YOURS))] = r
+    order = {YOURS: 0, REFERENCE: 1}
+    rows = sorted(
+        {row for col in cells.values() for row in col},
+        key=lambda row: (row[0], order.get(row[1], 2), row[1]),
+    )
+    return Board(cells, sorted(cells), rows)
+
+
+def _cell(score: dict[str, Any]) -> str:
+    lo_hi = score["ci95"]
+    interval = f" [{lo_hi[0]:.2f}, {lo_hi[1]:.2f}]" if lo_hi else ""
+    return f"{score['mean']:.2f}{interval}"
+
+
+def _parts_tables(board: Board) -> list[str]:
+    """Markdown lines: for each track whose results report ``parts`` (the outdoor tracks: each
+    condition, the unvisited region), a table of each part's mean over the world seeds."""
+    lines: list[str] = []
+    for t in board.tracks:
+        parts_of = {row: mean_parts(r) for row, r in board.cells[t].items()}
+        if None in parts_of.values():
+            continue
+        parts = list(dict.fromkeys(p for found in parts_of.values() for p in found))
+        lines += [
+            "",
+            f"{t}: the parts of the score (mean over the world seeds)",
+            "",
+            "| method | source | " + " | ".join(parts) + " |",
+            "|---" * (len(parts) + 2) + "|",
+        ]
+        for row in (row for row in board.rows if row in parts_of):
+            found = parts_of[row]
+            cells = [f"{found[p]:.2f}" if p in found else "-" for p in parts]
+            lines.append(f"| {row[0]} | {row[1]} | " + " | ".join(cells) + " |")
+    return lines
+
+
+class CellMarks(Protocol):
+    """Marks on the table's cells and their footnotes
+    (:class:`~sfa_gym.leaderboard.checks.Marks`)."""
+
+    def mark(self, column: str, row: Row) -> str: ...
+
+    def footnotes(self) -> list[str]: ...
+
+
+def markdown_table(board: Board, marks: CellMarks | None = None) -> str:
+    """The markdown of ``LEADERBOARD.md``: the scores (a row per method and source, a column
+    per track; a cell is the mean over the world seeds with its t-interval, with its ``marks``:
+    see :func:`~sfa_gym.leaderboard.checks.check_board`), the parts of the outdoor tracks'
+    scores, and each track's version, world seeds and commit."""
+    lines = [
+        "# Leaderboard",
+        "",
+        "Mean over the scoring world seeds, with the Student-t 95 % interval across them in "
+        "brackets. Localization: MAE in % of the coordinate range, mean of x and y (lower is "
+        "better); navigation: success rate (higher is better). Source: yours (your results "
+        "folder) or reference (the committed reference results).",
+        "",
+        "| method | source | " + " | ".join(board.tracks) + " |",
+        "|---" * (len(board.tracks) + 2) + "|",
+    ]
+    for row in board.rows:
+        cells = [
+            _cell(board.cells[t][row]["score"]) + (marks.mark(t, row) if marks else "")
+            if row in board.cells[t]
+            else "-"
+            for t in board.tracks
+        ]
+        lines.append(f"| {row[0]} | {row[1]} | " + " | ".join(cells) + " |")
+    footnotes = marks.footnotes() if marks else []
+    return "\n".join(lines + footnotes + detail_tables(board)) + "\n"
+
+
+def detail_tables(board: Board) -> list[str]:
+    """Markdown lines below the score table: the parts of the outdoor tracks' scores, and each
+    track's version, world seeds and commit (per source)."""
+    lines = _parts_tables(board)
+    lines += ["", "| track | source | version | world seeds | commit |", "|---|---|---|---|---|"]
+    for t in board.tracks:
+        for source in dict.fromkeys(row[1] for row in board.rows if row in board.cells[t]):
+            any_result = next(r for row, r in board.cells[t].items() if row[1] == source)
+            seeds = [task["world_seed"] for task in any_result["tasks"]]
+            commit = any_result["provenance"]["git_commit"] or "-"
+            version = any_result["track"]["track_version"]
+            lines.append(f"| {t} | {source} | {version} | {seeds} | {commit} |")
+    return lines
+
+
+def draw_chart(board: Board) -> Figure:
+    """The chart of ``board``: one panel per track (four a row), a bar per row (the mean, with
+    the t-interval) and a dot per world seed; the axis follows the scores, so an interval wider
+    than them is cut at the panel's edge."""
+    import matplotlib.pyplot as plt
+
+    tracks = board.tracks
+    # at most four panels a row, so that a board of many tracks stays readable
+    ncols = min(4, len(tracks))
+    nrows = -(-len(tracks) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.0 * ncols, 3.3 * nrows), squeeze=False)
+    for ax, t in zip(axes.flat, tracks, strict=False):
+        rows = [row for row in board.rows if row in board.cells[t]]
+        scores = [board.cells[t][row]["score"] for row in rows]
+        means = np.array([s["mean"] for s in scores])
+        err = np.array(
+            [
+                [s["mean"] - s["ci95"][0], s["ci95"][1] - s["mean"]] if s["ci95"] else [0, 0]
+                for s in scores
+            ]
+        ).T
+        # beside yours, the reference rows in grey
+        gray = [board.several_sources and row[1] == REFERENCE for row in rows]
+        colors = ["tab:gray" if g else "tab:blue" for g in gray]
+        ax.bar(range(len(rows)), means, yerr=err, capsize=3, color=colors, alpha=0.8)
+        # each world seed's score: with few seeds the t-interval is wide, the points say why
+        points = [
+            [task["scores"]["score"] for task in board.cells[t][row]["tasks"]] for row in rows
+        ]
+        for i, values in enumerate(points):
+            ax.plot([i] * len(values), values, "k.", markersize=4)
+        higher = board.higher_is_better(t)
+        top = max(max(v) for v in points)
+        # the axis follows the scores, not the intervals (which may reach far beyond them)
+        ax.set_ylim(0, 1.05 if higher and top <= 1 else 1.3 * top)
+        names = [board.name(row) for row in rows]
+        ax.set_xticks(range(len(rows)), names, rotation=45, ha="right", fontsize=8)
+        ax.set_title(f"{t}\n({'higher' if higher else 'lower'} is better)", fontsize=9)
+        ax.set_ylabel("success rate" if higher else "MAE, % of range", fontsize=8)
+        ax.tick_params(axis="y", labelsize=8)
+    for ax in list(axes.flat)[len(tracks) :]:
+        ax.set_visible(False)
+    fig.tight_layout()
+    return fig
+
+
+def write_table(
+    results_dir: str | os.PathLike[str],
+    out: str | os.PathLike[str] | None = None,
+    reference: str | os.PathLike[str] | None = None,
+    marks: CellMarks | None = None,
+) -> str:
+    """Write ``LEADERBOARD.md`` and ``leaderboard.png`` (into ``out``, default the results
+    folder) from every result under ``results_dir``, and
+    beside them those under ``reference`` (the committed reference results, see
+    :func:`reference_folder`; None: none), its cells marked by ``marks`` (see
+    :func:`markdown_table`); returns the markdown text.
+
+    Raises:
+        ValueError: no results in either folder.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    board = load_board(results_dir, reference)
+    out_dir = Path(out) if out is not None else Path(results_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    text = markdown_table(board, marks)
+    (out_dir / "LEADERBOARD.md").write_text(text)
+    fig = draw_chart(board)
+    fig.savefig(out_dir / "leaderboard.png", dpi=90)
+    plt.close(fig)
+    return text
