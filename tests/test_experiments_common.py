@@ -171,12 +171,16 @@ def test_a_bad_world_seed_is_refused_before_any_run_is_asked_for(world_seed, mes
     assert runs.asked == []
 
 
-def test_the_command_line_refuses_a_negative_world_seed_before_creating_its_folder(tmp_path):
-    from sfa_gym.experiments import run_grid_experiment
+@pytest.mark.parametrize("command", ["localize", "localize-run", "localize-outdoor", "navigate"])
+def test_every_command_refuses_a_negative_world_seed_before_creating_its_folder(
+    command, tmp_path, capsys
+):
+    from sfa_gym.cli.main import main
 
-    with pytest.raises(ValueError, match="world_seed must be >= 0, got -1"):
-        run_grid_experiment(GridExperiment(world_seed=-1), tmp_path / "out", progress=False)
-    assert not (tmp_path / "out").exists()
+    out = tmp_path / "out"
+    assert main([command, "--world-seed", "-1", "--out", str(out)]) != 0
+    assert "world_seed must be >= 0, got -1" in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_the_settings_names_are_the_engines():

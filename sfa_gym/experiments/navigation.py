@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym._checks import check_int
+from sfa_gym._checks import check_int, check_world_seed
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.experiments.report import check_out_folder
 from sfa_gym.protocols import navigation as protocol
@@ -58,7 +58,7 @@ class NavigationExperiment(protocol.Config):
     def validate(self) -> None:
         """Raise ValueError naming the first bad setting."""
         super().validate()
-        check_int("world_seed", self.world_seed)
+        check_world_seed("world_seed", self.world_seed)
         check_int("rendered_episodes", self.rendered_episodes)
         unknown = sorted(set(self.controllers) - set(CONTROLLERS))
         if unknown or not self.controllers:

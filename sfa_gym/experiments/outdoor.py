@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym._checks import check_int
+from sfa_gym._checks import check_world_seed
 from sfa_gym.experiments.common import FIGURE_REGRESSOR, methods_with_sfa
 from sfa_gym.experiments.report import check_out_folder, results_header, write_results
 from sfa_gym.experiments.trajectory import PAPER_OUTDOOR_RESULTS
@@ -42,7 +42,7 @@ class OutdoorExperiment(protocol.Config):
 
     def validate(self) -> None:
         """Raise ValueError (or TypeError) naming the first bad setting."""
-        check_int("world_seed", self.world_seed)
+        check_world_seed("world_seed", self.world_seed)
         super().validate()
         self.sfa.validate()
 
