@@ -29,7 +29,9 @@ def rotation_averaged_features(
             ``transform_rotations(panoramas, step) -> (L, K, k)`` (hierarchical SFA computes
             all rotations at once, its lower layers only once per panorama), or
             ``rotation_averaged(panoramas, step, window) -> (L, k)`` (a model whose features
-            are a function of another model's averages: :class:`EmbeddedFeatures`).
+            are a function of another model's averages: :class:`EmbeddedFeatures`), or that
+            it is ``rotation_invariant`` (its features of a full-width rotated view are the
+            panorama's: each panorama is transformed once).
         panoramas: ``(L, H, W, 3)`` uint8.
         step: shift between rotations in columns; must divide ``W``. ``step=1`` averages over
             every column, which makes the average invariant to turning by whole columns.
@@ -53,6 +55,11 @@ def rotation_averaged_features(
     if window is None:
         shape = getattr(model, "input_shape_", None)
         window = panoramas.shape[2] if shape is None else int(shape[1])
+    if capabilities.rotation_invariant and window == panoramas.shape[2]:
+        # a full-width rotated view has the panorama's own features (a column statistic): the
+        # mean over the rotations is the panorama's features, computed once instead of W / step
+        # times (equal up to the round-off of summing the columns in another order)
+        return np.asarray(model.transform(panoramas), np.float64).reshape(len(panoramas), -1)
     out = []
     for panorama in panoramas:
         views, _ = rotated_views(panorama, step=step, window=window)

@@ -417,3 +417,22 @@ def test_save_refuses_metadata_that_json_cannot_hold(field, tmp_path):
     with pytest.raises(ValueError, match="not JSON-serialisable"):
         odd.save(tmp_path / "f.npz")
     assert not list(tmp_path.iterdir())  # nothing half-written
+
+
+def test_a_rotation_invariant_method_is_averaged_with_one_transform_per_panorama():
+    """Band means (a column statistic) declare rotation_invariant: their rotation average is
+    their features of the panorama itself, computed once instead of once per column."""
+    from sfa_gym.plugins import load_method
+
+    rng = np.random.default_rng(3)
+    panoramas = rng.integers(0, 256, size=(3, 12, 40, 3), dtype=np.uint8)
+    method = load_method("band_means", {"n_bands": 4}).fit(panoramas)
+    calls = []
+    transform = method.transform
+    method.transform = lambda views: calls.append(len(views)) or transform(views)
+    fast = rotation_averaged_features(method, panoramas, step=1)
+    assert calls == [3]  # one call, one view per panorama
+    every_column = np.stack(
+        [transform(np.roll(panoramas, -k, axis=2)) for k in range(panoramas.shape[2])]
+    ).mean(axis=0)
+    np.testing.assert_allclose(fast, every_column, rtol=1e-12)
