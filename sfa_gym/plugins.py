@@ -412,14 +412,31 @@ def load_controller_plugin(source: str | os.PathLike[str]) -> ControllerPlugin:
 
 
 def load_method(
-    source: str | os.PathLike[str], args: Mapping[str, Any] | None = None
+    source: str | os.PathLike[str],
+    args: Mapping[str, Any] | None = None,
+    *,
+    isolated: bool = True,
+    limits: Any = None,
+    hidden: Sequence[str | os.PathLike[str]] = (),
 ) -> FeatureMethod:
     """A fresh, unfitted method from the plug-in ``source`` with ``args`` (JSON types).
 
+    Args:
+        isolated: run the plug-in in a worker process of its own
+            (:class:`~sfa_gym.sandbox.IsolatedMethod`: the trust model above; close it with
+            ``close()``); False: import it into this process (trusted code only).
+        limits: the time limits of an isolated method (:class:`~sfa_gym.sandbox.Limits`).
+        hidden: folders an isolated method must not read (the render cache, the results).
+
     Raises:
         FileNotFoundError, ValueError, PluginError: see :func:`load_method_plugin` and
-            :meth:`Plugin.parse`.
+            :meth:`Plugin.parse`. PluginTimeout, PluginCrashed: an isolated plug-in hung or died
+            while loading.
     """
+    if isolated:
+        from sfa_gym.sandbox import IsolatedMethod
+
+        return IsolatedMethod(source, args, limits, hidden)
     return load_method_plugin(source)(**dict(args or {}))
 
 

@@ -56,7 +56,9 @@ class Task:
     controller_args: Mapping[str, Any] = field(default_factory=dict)
 
 
-def _protocol_scores(track: Track, task: Task, method: Any, cache: RunCache) -> dict[str, Any]:
+def _protocol_scores(
+    track: Track, task: Task, method: Any, cache: RunCache, controllers: list[Any]
+) -> dict[str, Any]:
     """The task's scores from its protocol (:data:`~sfa_gym.leaderboard.tracks.PROTOCOLS`):
     ``score`` with the track's ``Config`` and the method's own regression; on
     ``unseen_worlds`` the world the method is fitted on, on navigation tracks the controller."""
@@ -65,21 +67,30 @@ def _protocol_scores(track: Track, task: Task, method: Any, cache: RunCache) -> 
     if track.fit_world_seeds:
         other["fit_world_seed"] = track.fit_world_seed(task.world_seed)
     if track.evaluation == "navigation":
-        other["controller"] = _controller(task.controller_path, task.controller_args)
+        other["controller"] = _controller(
+            task.controller_path, task.controller_args, controllers, [cache.root]
+        )
     found = protocol.score(track.config(task.quick), method, task.world_seed, cache, **other)
     return found.task_scores()
 
 
-def _controller(path: str | None, args: Mapping[str, Any]) -> Any:
-    """``controller(env, weights)`` of a controller plug-in (it sees only the rover's own
-    sensors), or None: the track's gradient controller."""
+def _controller(
+    path: str | None, args: Mapping[str, Any], made: list[Any], hidden: list[Any]
+) -> Any:
+    """``controller(env, weights)`` of a controller plug-in, or None: the track's gradient
+    controller. Each controller runs in a worker process of its own
+    (:class:`~sfa_gym.sandbox.IsolatedController`: it sees the features and the rover's own
+    sensors, never the env); ``made`` collects them, to be closed."""
     if path is None:
         return None
     from sfa_gym.navigation.sensors import Rover
-    from sfa_gym.plugins import load_controller_plugin
+    from sfa_gym.sandbox import IsolatedController
 
-    plugin = load_controller_plugin(path)
-    return lambda env, weights: plugin(Rover.of(env), weights, args)
+    def make(env: Any, weights: Any) -> IsolatedController:
+        made.append(IsolatedController(path, Rover.of(env), weights, args, hidden=hidden))
+        return made[-1]
+
+    return make
 
 
 def run_task(task: Task) -> dict[str, Any]:
@@ -101,13 +112,20 @@ def run_task(task: Task) -> dict[str, Any]:
         raise ValueError(
             f"a controller drives the rover on navigation tracks only, not on {track.name!r}"
         )
-    method = load_method(task.method_path, task.method_args)
     cache = RunCache(task.cache_dir)
-    # One BLAS thread wherever the task runs: multi-threaded reductions round differently, and
-    # a Ray worker starts single-threaded while a local process does not, so the same task
-    # would otherwise differ in the last digits between backends.
-    with threadpool_limits(limits=1):
-        scores = _protocol_scores(track, task, method, cache)
+    # The method runs in a worker process of its own, which cannot read the render cache (the
+    # recordings hold the poses); it computes with one BLAS thread too.
+    method = load_method(task.method_path, task.method_args, hidden=[cache.root])
+    controllers: list[Any] = []
+    try:
+        # One BLAS thread wherever the task runs: multi-threaded reductions round differently,
+        # and a Ray worker starts single-threaded while a local process does not, so the same
+        # task would otherwise differ in the last digits between backends.
+        with threadpool_limits(limits=1):
+            scores = _protocol_scores(track, task, method, cache, controllers)
+    finally:
+        for plugin in [method, *controllers]:
+            plugin.close()
     return {
         "world_seed": task.world_seed,
         "fit_world_seed": track.fit_world_seed(task.world_seed),
