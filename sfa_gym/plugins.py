@@ -6,8 +6,27 @@ the repository's ``baselines/`` (controllers in ``baselines/controllers/``); ins
 wheel, the package carries the same files as ``sfa_gym/plugins_data/``. Only the named file is
 executed: not its folder as a package, not its neighbours, and nothing is added to ``sys.path``.
 
-**Trust.** A plug-in is trusted code: it runs in the evaluator's process (or Ray worker) with
-that process's rights, and nothing sandboxes it. Load only files you would run yourself.
+**Trust.** A plug-in is untrusted code. :func:`load_method` (the leaderboard's path) runs it in
+a worker process of its own (:mod:`sfa_gym.sandbox`) and returns a proxy
+(:class:`~sfa_gym.sandbox.IsolatedMethod`; controllers:
+:class:`~sfa_gym.sandbox.IsolatedController`):
+
+- the worker is sent only what the protocol gives a plug-in: views and panoramas without their
+  poses; for a controller its observation (features) and the rover's own sensors. The env,
+  poses and the evaluator's objects never enter its address space (``sys._getframe`` and
+  ``gc`` find only the worker's own objects), and scoring happens in the evaluator;
+- what comes back is JSON-type values and arrays of numbers only, never unpickled objects;
+- every call has a wall-clock limit (:class:`~sfa_gym.sandbox.Limits`: ``fit`` 30 min, one
+  ``transform`` 10 min, ``act`` 1 s, ...); past it the worker is killed and
+  :class:`~sfa_gym.sandbox.PluginTimeout` names the plug-in, the call and the limit; a worker
+  that dies raises :class:`~sfa_gym.sandbox.PluginCrashed` with its exit code;
+- where bubblewrap (``bwrap``) works, the worker sees a read-only filesystem with only its
+  scratch folder writable, the render cache hidden, no network and its own PID namespace;
+  elsewhere it is a plain child process in a scratch folder (said once on stderr).
+
+:func:`load_method_plugin`, :func:`load_controller_plugin`, :func:`load_plugins` (``sfa-gym
+localize``'s baselines) and ``load_method(..., isolated=False)`` import the file into the
+calling process, with its full rights: for the library's own baselines and files you trust.
 
 Every plug-in file defines at module level
 

@@ -13,6 +13,7 @@ range (lower is better); the navigation score is the success rate (higher is bet
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -24,7 +25,7 @@ from sfa_gym.leaderboard.tracks import Track, load_track, protocol_module
 from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
 
-__all__ = ["HIGHER_IS_BETTER", "Task", "run_task"]
+__all__ = ["HIGHER_IS_BETTER", "IN_PROCESS", "Task", "plugins_isolated", "run_task"]
 
 HIGHER_IS_BETTER = {"localization": False, "navigation": True}
 """Direction of the ``score`` of each track kind."""
@@ -84,13 +85,30 @@ def _controller(
     if path is None:
         return None
     from sfa_gym.navigation.sensors import Rover
+    from sfa_gym.plugins import load_controller_plugin
     from sfa_gym.sandbox import IsolatedController
+
+    if not plugins_isolated():
+        plugin = load_controller_plugin(path)
+        return lambda env, weights: plugin(Rover.of(env), weights, args)
 
     def make(env: Any, weights: Any) -> IsolatedController:
         made.append(IsolatedController(path, Rover.of(env), weights, args, hidden=hidden))
         return made[-1]
 
     return make
+
+
+IN_PROCESS = "SFA_GYM_PLUGINS_IN_PROCESS"
+"""Set to ``1``, tasks import their plug-ins into their own process, with its full rights: for
+debugging a plug-in of one's own (a debugger stops in it), or a test in which a plug-in stands for
+a failure of the evaluator itself (a worker that dies, a signal to the sweep). Never for a board
+of others' plug-ins."""
+
+
+def plugins_isolated() -> bool:
+    """Whether tasks run plug-ins in worker processes (the default; see :data:`IN_PROCESS`)."""
+    return os.environ.get(IN_PROCESS, "") != "1"
 
 
 def run_task(task: Task) -> dict[str, Any]:
@@ -115,16 +133,17 @@ def run_task(task: Task) -> dict[str, Any]:
     cache = RunCache(task.cache_dir)
     # The method runs in a worker process of its own, which cannot read the render cache (the
     # recordings hold the poses); it computes with one BLAS thread too.
-    method = load_method(task.method_path, task.method_args, hidden=[cache.root])
-    controllers: list[Any] = []
+    isolated = plugins_isolated()
+    method = load_method(task.method_path, task.method_args, isolated=isolated, hidden=[cache.root])
+    workers: list[Any] = [method] if isolated else []
     try:
         # One BLAS thread wherever the task runs: multi-threaded reductions round differently,
         # and a Ray worker starts single-threaded while a local process does not, so the same
         # task would otherwise differ in the last digits between backends.
         with threadpool_limits(limits=1):
-            scores = _protocol_scores(track, task, method, cache, controllers)
+            scores = _protocol_scores(track, task, method, cache, workers)
     finally:
-        for plugin in [method, *controllers]:
+        for plugin in workers:
             plugin.close()
     return {
         "world_seed": task.world_seed,

@@ -57,6 +57,9 @@ def _known_errors() -> dict[str, type[Exception]]:
         AttributeError,
         MemoryError,
         ArithmeticError,
+        AssertionError,
+        OSError,
+        RuntimeError,
     ]
     return {cls.__name__: cls for cls in known}
 

@@ -157,8 +157,10 @@ class IsolatedMethod(_Isolated):
         return self
 
     def fit(self, views: ArrayLike, sequence_ids: ArrayLike | None = None) -> IsolatedMethod:
-        ids = None if sequence_ids is None else np.asarray(sequence_ids)
-        return self._fitted("fit", np.asarray(views), ids)
+        # called as the caller called it: a method may take no sequence_ids at all
+        if sequence_ids is None:
+            return self._fitted("fit", np.asarray(views))
+        return self._fitted("fit", np.asarray(views), np.asarray(sequence_ids))
 
     def fit_rotations(self, panoramas: ArrayLike) -> IsolatedMethod:
         return self._fitted("fit_rotations", np.asarray(panoramas))
