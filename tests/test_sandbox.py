@@ -107,8 +107,9 @@ def test_a_plugin_sees_none_of_the_evaluators_objects(tmp_path):
 
 WRITER = """
     def look(self):
-        import os
+        import os, subprocess
         from pathlib import Path
+        subprocess.run(["mount", "-o", "remount,rw", "/"], capture_output=True)  # as root
         try:
             Path(self.target, "written.txt").write_text("forged")
             outside = 1.0

@@ -64,7 +64,18 @@ def _known_errors() -> dict[str, type[Exception]]:
     return {cls.__name__: cls for cls in known}
 
 
-BWRAP_FLAGS = ("--unshare-net", "--unshare-pid", "--die-with-parent", "--new-session")
+# No network, no view of other processes or their shared memory, and no capabilities: bwrap run
+# by root keeps them all by default, with which a worker could remount the filesystem writable.
+BWRAP_FLAGS = (
+    "--unshare-net",
+    "--unshare-pid",
+    "--unshare-ipc",
+    "--unshare-uts",
+    "--cap-drop",
+    "ALL",
+    "--die-with-parent",
+    "--new-session",
+)
 
 
 @functools.cache
