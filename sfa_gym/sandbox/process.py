@@ -44,7 +44,7 @@ class PluginFailed(RuntimeError):
 # Exceptions raised in a worker that are raised again in the evaluator with their own type (so a
 # plug-in's ValueError for a bad argument stays a ValueError); any other becomes PluginFailed.
 def _known_errors() -> dict[str, type[Exception]]:
-    from sfa_gym.plugins import PluginError
+    from sfa_gym.plugin_files import PluginError
 
     known: list[type[Exception]] = [
         PluginError,

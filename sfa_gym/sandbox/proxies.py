@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sfa_gym.capabilities import Capabilities
-from sfa_gym.plugins import PluginError, resolve_plugin
+from sfa_gym.plugin_files import PluginError, resolve_plugin
 from sfa_gym.sandbox.process import Worker
 
 __all__ = ["IsolatedController", "IsolatedMethod", "Limits"]
