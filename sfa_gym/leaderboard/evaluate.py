@@ -24,6 +24,7 @@ from threadpoolctl import threadpool_limits
 from sfa_gym.leaderboard.tracks import Track, load_track, protocol_module
 from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
+from sfa_gym.sandbox import Limits
 
 __all__ = ["HIGHER_IS_BETTER", "IN_PROCESS", "Task", "plugins_isolated", "run_task"]
 
@@ -45,6 +46,8 @@ class Task:
         controller_path: navigation tracks: a controller plug-in file that drives the rover
             instead of the track's gradient controller (None: the track's).
         controller_args: keyword arguments of the controller's ``Args`` (JSON types).
+        time_limits: seconds per kind of call into the plug-ins, over the defaults of
+            :class:`~sfa_gym.sandbox.Limits` (``{"fit": 3600}``).
     """
 
     track_path: str
@@ -55,10 +58,11 @@ class Task:
     cache_dir: str | None = None
     controller_path: str | None = None
     controller_args: Mapping[str, Any] = field(default_factory=dict)
+    time_limits: Mapping[str, float] = field(default_factory=dict)
 
 
 def _protocol_scores(
-    track: Track, task: Task, method: Any, cache: RunCache, controllers: list[Any]
+    track: Track, task: Task, method: Any, cache: RunCache, controllers: list[Any], limits: Any
 ) -> dict[str, Any]:
     """The task's scores from its protocol (:data:`~sfa_gym.leaderboard.tracks.PROTOCOLS`):
     ``score`` with the track's ``Config`` and the method's own regression; on
@@ -69,14 +73,14 @@ def _protocol_scores(
         other["fit_world_seed"] = track.fit_world_seed(task.world_seed)
     if track.evaluation == "navigation":
         other["controller"] = _controller(
-            task.controller_path, task.controller_args, controllers, [cache.root]
+            task.controller_path, task.controller_args, controllers, [cache.root], limits
         )
     found = protocol.score(track.config(task.quick), method, task.world_seed, cache, **other)
     return found.task_scores()
 
 
 def _controller(
-    path: str | None, args: Mapping[str, Any], made: list[Any], hidden: list[Any]
+    path: str | None, args: Mapping[str, Any], made: list[Any], hidden: list[Any], limits: Any
 ) -> Any:
     """``controller(env, weights)`` of a controller plug-in, or None: the track's gradient
     controller. Each controller runs in a worker process of its own
@@ -93,7 +97,7 @@ def _controller(
         return lambda env, weights: plugin(Rover.of(env), weights, args)
 
     def make(env: Any, weights: Any) -> IsolatedController:
-        made.append(IsolatedController(path, Rover.of(env), weights, args, hidden=hidden))
+        made.append(IsolatedController(path, Rover.of(env), weights, args, limits, hidden))
         return made[-1]
 
     return make
@@ -134,14 +138,17 @@ def run_task(task: Task) -> dict[str, Any]:
     # The method runs in a worker process of its own, which cannot read the render cache (the
     # recordings hold the poses); it computes with one BLAS thread too.
     isolated = plugins_isolated()
-    method = load_method(task.method_path, task.method_args, isolated=isolated, hidden=[cache.root])
+    limits = Limits.of(task.time_limits)
+    method = load_method(
+        task.method_path, task.method_args, isolated=isolated, limits=limits, hidden=[cache.root]
+    )
     workers: list[Any] = [method] if isolated else []
     try:
         # One BLAS thread wherever the task runs: multi-threaded reductions round differently,
         # and a Ray worker starts single-threaded while a local process does not, so the same
         # task would otherwise differ in the last digits between backends.
         with threadpool_limits(limits=1):
-            scores = _protocol_scores(track, task, method, cache, workers)
+            scores = _protocol_scores(track, task, method, cache, workers, limits)
     finally:
         for plugin in workers:
             plugin.close()

@@ -41,6 +41,21 @@ class Limits:
     act: float = 1.0
     """one ``act`` of a controller"""
 
+    @classmethod
+    def of(cls, seconds: Mapping[str, float] | None) -> Limits:
+        """The defaults with ``seconds`` (``{"fit": 60}``) applied.
+
+        Raises:
+            ValueError: a key that is not a kind of call (the message lists them), or a limit
+                that is not a positive number.
+        """
+        seconds = dict(seconds or {})
+        known = [field.name for field in dataclasses.fields(cls)]
+        unknown = sorted(set(seconds) - set(known))
+        if unknown:
+            raise ValueError(f"no time limit named {unknown}; the limits are {known}")
+        return cls(**seconds)
+
     def __post_init__(self) -> None:
         for field in dataclasses.fields(self):
             value = getattr(self, field.name)
