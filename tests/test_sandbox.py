@@ -157,8 +157,9 @@ def test_wrong_outputs_and_arguments_are_refused_naming_the_plugin(tmp_path):
     with load_method(_plugin(tmp_path, words)) as method:
         with pytest.raises(PluginError, match="hostile: transform"):
             method.fit(_views()).transform(_views())
-    with pytest.raises(ValueError, match="unknown argument 'n_band'"):
+    with pytest.raises(ValueError, match="unknown argument 'n_band'") as raised:
         load_method(BAND_MEANS, {"n_band": 3})
+    assert "in the worker process of the plug-in" in raised.value.__notes__[0]  # its traceback
     with pytest.raises(ValueError, match="time limit act"):
         Limits(act=0)
 

@@ -117,7 +117,8 @@ def _call(made: Any, kind: str, request: dict[str, Any]) -> Any:
 def _error(error: BaseException) -> dict[str, Any]:
     names = [cls.__name__ for cls in type(error).__mro__]
     text = "".join(traceback.format_exception_only(type(error), error)).strip()
-    return {"error": names, "message": str(error), "text": text}
+    trace = "".join(traceback.format_exception(error)).strip()
+    return {"error": names, "message": str(error), "text": text, "traceback": trace}
 
 
 def main() -> None:

@@ -66,6 +66,23 @@ def _known_errors() -> dict[str, type[Exception]]:
 
 # No network, no view of other processes or their shared memory, and no capabilities: bwrap run
 # by root keeps them all by default, with which a worker could remount the filesystem writable.
+def _rebuilt(answer: dict[str, Any], label: str, what: str) -> Exception:
+    """The exception a worker reported, of its own type when :func:`_known_errors` has it, with
+    the worker's traceback as a note (shown under the evaluator's traceback)."""
+    names, message = answer["error"], str(answer.get("message", ""))
+    known = _known_errors()
+    found = next((known[n] for n in names if n in known), None) if isinstance(names, list) else None
+    error: Exception
+    if found is None:
+        error = PluginFailed(f"the plug-in {label} failed in {what}: {answer.get('text')}")
+    else:
+        error = found(message)
+    trace = answer.get("traceback")
+    if isinstance(trace, str):
+        error.add_note(f"in the worker process of the plug-in {label} ({what}):\n{trace}")
+    return error
+
+
 BWRAP_FLAGS = (
     "--unshare-net",
     "--unshare-pid",
@@ -184,12 +201,7 @@ class Worker:
             self.stop()
             raise PluginCrashed(f"the plug-in {self.label} sent a malformed answer to {what}")
         if "error" in answer:
-            names, message = answer["error"], str(answer.get("message", ""))
-            known = _known_errors()
-            for name in names if isinstance(names, list) else []:
-                if name in known:
-                    raise known[name](message)
-            raise PluginFailed(f"the plug-in {self.label} failed in {what}: {answer.get('text')}")
+            raise _rebuilt(answer, self.label, what)
         return answer["ok"]
 
     def _write(self, parts: list[bytes | memoryview], deadline: float) -> None:
