@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Set up sfa-gym on a fresh Debian/Ubuntu machine: the system libraries for headless
-# rendering (EGL, OSMesa fallback), a virtual environment in .venv, and the package with the
+# rendering (EGL, OSMesa fallback), bubblewrap (the plug-ins' sandbox), a virtual environment in .venv, and the package with the
 # locked versions of the packages its numbers depend on (constraints.txt).
 #
 #   bash scripts/setup.sh          the library and its command line (sfa-gym)
@@ -13,7 +13,8 @@ cd "$(dirname "$0")/.."
 
 extras="${1:-}"
 gl_packages="libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6"
-system_packages="$gl_packages"
+# bubblewrap confines the leaderboard's plug-in workers (read-only filesystem, no network)
+system_packages="$gl_packages bubblewrap"
 # the browser the docs test drives (a Debian package: browser downloads are not needed)
 case ",$extras," in *,test,*) system_packages="$system_packages chromium chromium-driver" ;; esac
 
@@ -36,7 +37,8 @@ if [ -n "$missing" ]; then
         echo "warning: missing system packages:$missing" >&2
         echo "         ask an administrator to run: apt-get install$missing" >&2
         echo "         (for the GL libraries: or point MUJOCO_GL at a GL backend that works" >&2
-        echo "         on this machine; without chromium the docs browser test is skipped)" >&2
+        echo "         on this machine; without chromium the docs browser test is skipped;" >&2
+        echo "         without bubblewrap plug-ins run in plain, unconfined worker processes)" >&2
     fi
 fi
 

@@ -6,8 +6,27 @@ the repository's ``baselines/`` (controllers in ``baselines/controllers/``); ins
 wheel, the package carries the same files as ``sfa_gym/plugins_data/``. Only the named file is
 executed: not its folder as a package, not its neighbours, and nothing is added to ``sys.path``.
 
-**Trust.** A plug-in is trusted code: it runs in the evaluator's process (or Ray worker) with
-that process's rights, and nothing sandboxes it. Load only files you would run yourself.
+**Trust.** A plug-in is untrusted code. :func:`load_method` (the leaderboard's path) runs it in
+a worker process of its own (:mod:`sfa_gym.sandbox`) and returns a proxy
+(:class:`~sfa_gym.sandbox.IsolatedMethod`; controllers:
+:class:`~sfa_gym.sandbox.IsolatedController`):
+
+- the worker is sent only what the protocol gives a plug-in: views and panoramas without their
+  poses; for a controller its observation (features) and the rover's own sensors. The env,
+  poses and the evaluator's objects never enter its address space (``sys._getframe`` and
+  ``gc`` find only the worker's own objects), and scoring happens in the evaluator;
+- what comes back is JSON-type values and arrays of numbers only, never unpickled objects;
+- every call has a wall-clock limit (:class:`~sfa_gym.sandbox.Limits`: ``fit`` 30 min, one
+  ``transform`` 10 min, ``act`` 1 s, ...); past it the worker is killed and
+  :class:`~sfa_gym.sandbox.PluginTimeout` names the plug-in, the call and the limit; a worker
+  that dies raises :class:`~sfa_gym.sandbox.PluginCrashed` with its exit code;
+- where bubblewrap (``bwrap``) works, the worker sees a read-only filesystem with only its
+  scratch folder writable, the render cache hidden, no network and its own PID namespace;
+  elsewhere it is a plain child process in a scratch folder (said once on stderr).
+
+:func:`load_method_plugin`, :func:`load_controller_plugin`, :func:`load_plugins` (``sfa-gym
+localize``'s baselines) and ``load_method(..., isolated=False)`` import the file into the
+calling process, with its full rights: for the library's own baselines and files you trust.
 
 Every plug-in file defines at module level
 
@@ -70,7 +89,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import Any, ClassVar, Literal, Protocol, runtime_checkable
+from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -78,7 +97,15 @@ from numpy.typing import ArrayLike, NDArray
 from sfa_gym._json_types import dataclass_from_json
 from sfa_gym._types import check_views
 from sfa_gym.capabilities import Capabilities, get_capabilities
-from sfa_gym.data import checkout_root, data_folder
+from sfa_gym.data import checkout_root
+from sfa_gym.plugin_files import (
+    KIND_NAMES,
+    Kind,
+    PluginError,
+    default_plugin_folder,
+    list_plugin_files,
+    resolve_plugin,
+)
 
 __all__ = [
     "Argument",
@@ -103,11 +130,6 @@ __all__ = [
     "resolve_plugin",
 ]
 
-Kind = Literal["method", "controller"]
-
-KIND_NAMES: Mapping[str, str] = {"method": "feature-method", "controller": "controller"}
-"""How errors name a plug-in file of each kind (``no feature-method file at ...``)."""
-
 
 @runtime_checkable
 class FeatureMethod(Protocol):
@@ -122,11 +144,6 @@ class FeatureMethod(Protocol):
     def transform(self, views: NDArray[np.uint8]) -> NDArray[np.floating]: ...
 
 
-class PluginError(TypeError):
-    """A plug-in file that does not follow the contract (the message names the file and what is
-    wrong)."""
-
-
 def iter_chunks(n: int, chunk: int) -> Iterator[slice]:
     """Slices ``[0, chunk), [chunk, 2 chunk), ...`` covering ``range(n)``."""
     for start in range(0, n, chunk):
@@ -136,73 +153,6 @@ def iter_chunks(n: int, chunk: int) -> Iterator[slice]:
 def file_sha256(path: str | os.PathLike[str]) -> str:
     """SHA-256 (hex) of a file: identifies the exact plug-in a result was made with."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
-# ---------------------------------------------------------------------------------------------
-# Where the built-in plug-ins are
-
-
-def default_plugin_folder(package_dir: Path | None = None) -> tuple[Path | None, str]:
-    """The folder of the built-in plug-ins, and a sentence saying where it comes from.
-
-    In a checkout of the repository (the package's parent folder holds this project's
-    ``pyproject.toml`` and a ``baselines/`` folder) the checkout's ``baselines/``; otherwise the
-    plug-ins shipped inside the package; otherwise none. A ``baselines`` folder that another
-    distribution put next to the package in ``site-packages`` is never looked at.
-    """
-    try:
-        folder = data_folder("baselines", package_dir)
-    except FileNotFoundError:
-        return (
-            None,
-            "no baselines: not run from a checkout and none shipped; name a folder with "
-            "--baselines",
-        )
-    root = checkout_root(package_dir)
-    if root is not None and folder == root / "baselines":
-        return folder, f"baselines of the checkout {root}"
-    return (
-        folder,
-        f"the baselines shipped with sfa-gym ({folder}); name another folder with --baselines",
-    )
-
-
-def list_plugin_files(directory: str | Path) -> list[Path]:
-    """The plug-in files of a directory: ``*.py`` not starting with ``_``, sorted by name."""
-    directory = Path(directory)
-    if not directory.is_dir():
-        raise FileNotFoundError(f"no directory {directory}")
-    return sorted(p for p in directory.glob("*.py") if not p.name.startswith("_"))
-
-
-def resolve_plugin(source: str | os.PathLike[str], kind: Kind = "method") -> Path:
-    """The plug-in file of ``source``: a built-in name (``"band_means"``, a Python identifier)
-    or a path to a ``.py`` file.
-
-    Raises:
-        FileNotFoundError: no such file, or no built-in plug-in of that name (the message lists
-            the built-in ones).
-        ValueError: a path that is not a ``.py`` file.
-    """
-    what = KIND_NAMES[kind]
-    if isinstance(source, str) and source.isidentifier():
-        folder, _ = default_plugin_folder()
-        if folder is not None and kind == "controller":
-            folder = folder / "controllers"
-        path = None if folder is None else folder / f"{source}.py"
-        if path is None or not path.is_file():
-            known = [] if folder is None or not folder.is_dir() else list_plugin_files(folder)
-            raise FileNotFoundError(
-                f"no built-in {what} {source!r}; the built-in ones are {[p.stem for p in known]} "
-                f"(in {folder}); or give the path of a .py file"
-            )
-        return path.resolve()
-    path = Path(source).resolve()
-    if not path.is_file():
-        raise FileNotFoundError(f"no {what} file at {path}")
-    if path.suffix != ".py":
-        raise ValueError(f"a {what} file must be a .py file, got {path}")
-    return path
 
 
 def import_plugin_file(path: Path) -> ModuleType:
@@ -412,14 +362,31 @@ def load_controller_plugin(source: str | os.PathLike[str]) -> ControllerPlugin:
 
 
 def load_method(
-    source: str | os.PathLike[str], args: Mapping[str, Any] | None = None
+    source: str | os.PathLike[str],
+    args: Mapping[str, Any] | None = None,
+    *,
+    isolated: bool = True,
+    limits: Any = None,
+    hidden: Sequence[str | os.PathLike[str]] = (),
 ) -> FeatureMethod:
     """A fresh, unfitted method from the plug-in ``source`` with ``args`` (JSON types).
 
+    Args:
+        isolated: run the plug-in in a worker process of its own
+            (:class:`~sfa_gym.sandbox.IsolatedMethod`: the trust model above; close it with
+            ``close()``); False: import it into this process (trusted code only).
+        limits: the time limits of an isolated method (:class:`~sfa_gym.sandbox.Limits`).
+        hidden: folders an isolated method must not read (the render cache, the results).
+
     Raises:
         FileNotFoundError, ValueError, PluginError: see :func:`load_method_plugin` and
-            :meth:`Plugin.parse`.
+            :meth:`Plugin.parse`. PluginTimeout, PluginCrashed: an isolated plug-in hung or died
+            while loading.
     """
+    if isolated:
+        from sfa_gym.sandbox import IsolatedMethod
+
+        return IsolatedMethod(source, args, limits, hidden)
     return load_method_plugin(source)(**dict(args or {}))
 
 

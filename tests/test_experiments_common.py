@@ -202,7 +202,7 @@ def test_rotation_invariant_methods_transform_each_panorama_once(panoramas):
 
     from sfa_gym.plugins import load_method
 
-    band_means = load_method("band_means", {"n_bands": 2})
+    band_means = load_method("band_means", {"n_bands": 2}, isolated=False)  # subclassed here
     calls = []
 
     class Counting(type(band_means)):

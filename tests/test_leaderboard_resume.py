@@ -15,6 +15,7 @@ import pytest
 from test_leaderboard import BAND_MEANS, TINY, _write_track
 
 from sfa_gym.leaderboard import backends
+from sfa_gym.leaderboard.evaluate import IN_PROCESS
 from sfa_gym.leaderboard.sweep import SweepError, run_sweep
 from sfa_gym.leaderboard.tracks import load_track
 
@@ -186,7 +187,10 @@ def make_method(**args):
 """
 
 
-def test_sigterm_keeps_the_finished_tasks_and_the_same_command_resumes(tmp_path):
+def test_sigterm_keeps_the_finished_tasks_and_the_same_command_resumes(tmp_path, monkeypatch):
+    # the plug-in stands for the scheduler: it signals the evaluator, which a plug-in in its own
+    # worker process cannot do
+    monkeypatch.setenv(IN_PROCESS, "1")
     tracks, results = tmp_path / "tracks", tmp_path / "results"
     _write_track(tracks, TINY)
     counter = tmp_path / "made.txt"
@@ -229,8 +233,10 @@ def make_method(**args):
 """
 
 
-def test_on_ray_a_dead_worker_is_retried_once_and_failures_are_recorded(tmp_path):
+def test_on_ray_a_dead_worker_is_retried_once_and_failures_are_recorded(tmp_path, monkeypatch):
     pytest.importorskip("ray", reason="ray is not installed (pip install 'sfa-gym[ray]')")
+    # the plug-in stands for whatever kills a Ray worker: it must run in that worker's process
+    monkeypatch.setenv(IN_PROCESS, "1")
     import ray
 
     track = load_track(_write_track(tmp_path / "tracks", {**TINY, "world_seeds": [100]}))

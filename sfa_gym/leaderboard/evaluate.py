@@ -13,6 +13,7 @@ range (lower is better); the navigation score is the success rate (higher is bet
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -23,8 +24,9 @@ from threadpoolctl import threadpool_limits
 from sfa_gym.leaderboard.tracks import Track, load_track, protocol_module
 from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
+from sfa_gym.sandbox import Limits
 
-__all__ = ["HIGHER_IS_BETTER", "Task", "run_task"]
+__all__ = ["HIGHER_IS_BETTER", "IN_PROCESS", "Task", "plugins_isolated", "run_task"]
 
 HIGHER_IS_BETTER = {"localization": False, "navigation": True}
 """Direction of the ``score`` of each track kind."""
@@ -44,6 +46,8 @@ class Task:
         controller_path: navigation tracks: a controller plug-in file that drives the rover
             instead of the track's gradient controller (None: the track's).
         controller_args: keyword arguments of the controller's ``Args`` (JSON types).
+        time_limits: seconds per kind of call into the plug-ins, over the defaults of
+            :class:`~sfa_gym.sandbox.Limits` (``{"fit": 3600}``).
     """
 
     track_path: str
@@ -54,9 +58,12 @@ class Task:
     cache_dir: str | None = None
     controller_path: str | None = None
     controller_args: Mapping[str, Any] = field(default_factory=dict)
+    time_limits: Mapping[str, float] = field(default_factory=dict)
 
 
-def _protocol_scores(track: Track, task: Task, method: Any, cache: RunCache) -> dict[str, Any]:
+def _protocol_scores(
+    track: Track, task: Task, method: Any, cache: RunCache, controllers: list[Any], limits: Any
+) -> dict[str, Any]:
     """The task's scores from its protocol (:data:`~sfa_gym.leaderboard.tracks.PROTOCOLS`):
     ``score`` with the track's ``Config`` and the method's own regression; on
     ``unseen_worlds`` the world the method is fitted on, on navigation tracks the controller."""
@@ -65,21 +72,47 @@ def _protocol_scores(track: Track, task: Task, method: Any, cache: RunCache) -> 
     if track.fit_world_seeds:
         other["fit_world_seed"] = track.fit_world_seed(task.world_seed)
     if track.evaluation == "navigation":
-        other["controller"] = _controller(task.controller_path, task.controller_args)
+        other["controller"] = _controller(
+            task.controller_path, task.controller_args, controllers, [cache.root], limits
+        )
     found = protocol.score(track.config(task.quick), method, task.world_seed, cache, **other)
     return found.task_scores()
 
 
-def _controller(path: str | None, args: Mapping[str, Any]) -> Any:
-    """``controller(env, weights)`` of a controller plug-in (it sees only the rover's own
-    sensors), or None: the track's gradient controller."""
+def _controller(
+    path: str | None, args: Mapping[str, Any], made: list[Any], hidden: list[Any], limits: Any
+) -> Any:
+    """``controller(env, weights)`` of a controller plug-in, or None: the track's gradient
+    controller. Each controller runs in a worker process of its own
+    (:class:`~sfa_gym.sandbox.IsolatedController`: it sees the features and the rover's own
+    sensors, never the env); ``made`` collects them, to be closed."""
     if path is None:
         return None
     from sfa_gym.navigation.sensors import Rover
     from sfa_gym.plugins import load_controller_plugin
+    from sfa_gym.sandbox import IsolatedController
 
-    plugin = load_controller_plugin(path)
-    return lambda env, weights: plugin(Rover.of(env), weights, args)
+    if not plugins_isolated():
+        plugin = load_controller_plugin(path)
+        return lambda env, weights: plugin(Rover.of(env), weights, args)
+
+    def make(env: Any, weights: Any) -> IsolatedController:
+        made.append(IsolatedController(path, Rover.of(env), weights, args, limits, hidden))
+        return made[-1]
+
+    return make
+
+
+IN_PROCESS = "SFA_GYM_PLUGINS_IN_PROCESS"
+"""Set to ``1``, tasks import their plug-ins into their own process, with its full rights: for
+debugging a plug-in of one's own (a debugger stops in it), or a test in which a plug-in stands for
+a failure of the evaluator itself (a worker that dies, a signal to the sweep). Never for a board
+of others' plug-ins."""
+
+
+def plugins_isolated() -> bool:
+    """Whether tasks run plug-ins in worker processes (the default; see :data:`IN_PROCESS`)."""
+    return os.environ.get(IN_PROCESS, "") != "1"
 
 
 def run_task(task: Task) -> dict[str, Any]:
@@ -101,13 +134,24 @@ def run_task(task: Task) -> dict[str, Any]:
         raise ValueError(
             f"a controller drives the rover on navigation tracks only, not on {track.name!r}"
         )
-    method = load_method(task.method_path, task.method_args)
     cache = RunCache(task.cache_dir)
-    # One BLAS thread wherever the task runs: multi-threaded reductions round differently, and
-    # a Ray worker starts single-threaded while a local process does not, so the same task
-    # would otherwise differ in the last digits between backends.
-    with threadpool_limits(limits=1):
-        scores = _protocol_scores(track, task, method, cache)
+    # The method runs in a worker process of its own, which cannot read the render cache (the
+    # recordings hold the poses); it computes with one BLAS thread too.
+    isolated = plugins_isolated()
+    limits = Limits.of(task.time_limits)
+    method = load_method(
+        task.method_path, task.method_args, isolated=isolated, limits=limits, hidden=[cache.root]
+    )
+    workers: list[Any] = [method] if isolated else []
+    try:
+        # One BLAS thread wherever the task runs: multi-threaded reductions round differently,
+        # and a Ray worker starts single-threaded while a local process does not, so the same
+        # task would otherwise differ in the last digits between backends.
+        with threadpool_limits(limits=1):
+            scores = _protocol_scores(track, task, method, cache, workers, limits)
+    finally:
+        for plugin in workers:
+            plugin.close()
     return {
         "world_seed": task.world_seed,
         "fit_world_seed": track.fit_world_seed(task.world_seed),

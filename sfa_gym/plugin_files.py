@@ -1,0 +1,100 @@
+"""Where plug-in files are: the built-in ones (a checkout's ``baselines/`` or the copy shipped in
+the package), a folder's plug-in files, and the file a name or path stands for; and the error of
+a file that does not follow the contract. Both sides of a plug-in's isolation use them: the
+evaluator finds the file, the worker process imports it (:mod:`sfa_gym.plugins`,
+:mod:`sfa_gym.sandbox`)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Literal
+
+from sfa_gym.data import checkout_root, data_folder
+
+__all__ = [
+    "KIND_NAMES",
+    "Kind",
+    "PluginError",
+    "default_plugin_folder",
+    "list_plugin_files",
+    "resolve_plugin",
+]
+
+Kind = Literal["method", "controller"]
+
+KIND_NAMES: Mapping[str, str] = {"method": "feature-method", "controller": "controller"}
+"""How errors name a plug-in file of each kind (``no feature-method file at ...``)."""
+
+
+class PluginError(TypeError):
+    """A plug-in file that does not follow the contract (the message names the file and what is
+    wrong)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Where the built-in plug-ins are
+
+
+def default_plugin_folder(package_dir: Path | None = None) -> tuple[Path | None, str]:
+    """The folder of the built-in plug-ins, and a sentence saying where it comes from.
+
+    In a checkout of the repository (the package's parent folder holds this project's
+    ``pyproject.toml`` and a ``baselines/`` folder) the checkout's ``baselines/``; otherwise the
+    plug-ins shipped inside the package; otherwise none. A ``baselines`` folder that another
+    distribution put next to the package in ``site-packages`` is never looked at.
+    """
+    try:
+        folder = data_folder("baselines", package_dir)
+    except FileNotFoundError:
+        return (
+            None,
+            "no baselines: not run from a checkout and none shipped; name a folder with "
+            "--baselines",
+        )
+    root = checkout_root(package_dir)
+    if root is not None and folder == root / "baselines":
+        return folder, f"baselines of the checkout {root}"
+    return (
+        folder,
+        f"the baselines shipped with sfa-gym ({folder}); name another folder with --baselines",
+    )
+
+
+def list_plugin_files(directory: str | Path) -> list[Path]:
+    """The plug-in files of a directory: ``*.py`` not starting with ``_``, sorted by name."""
+    directory = Path(directory)
+    if not directory.is_dir():
+        raise FileNotFoundError(f"no directory {directory}")
+    return sorted(p for p in directory.glob("*.py") if not p.name.startswith("_"))
+
+
+def resolve_plugin(source: str | os.PathLike[str], kind: Kind = "method") -> Path:
+    """The plug-in file of ``source``: a built-in name (``"band_means"``, a Python identifier)
+    or a path to a ``.py`` file.
+
+    Raises:
+        FileNotFoundError: no such file, or no built-in plug-in of that name (the message lists
+            the built-in ones).
+        ValueError: a path that is not a ``.py`` file.
+    """
+    what = KIND_NAMES[kind]
+    if isinstance(source, str) and source.isidentifier():
+        folder, _ = default_plugin_folder()
+        if folder is not None and kind == "controller":
+            folder = folder / "controllers"
+        path = None if folder is None else folder / f"{source}.py"
+        if path is None or not path.is_file():
+            known = [] if folder is None or not folder.is_dir() else list_plugin_files(folder)
+            raise FileNotFoundError(
+                f"no built-in {what} {source!r}; the built-in ones are {[p.stem for p in known]} "
+                f"(in {folder}); or give the path of a .py file"
+            )
+        return path.resolve()
+    path = Path(source).resolve()
+    if not path.is_file():
+        raise FileNotFoundError(f"no {what} file at {path}")
+    if path.suffix != ".py":
+        raise ValueError(f"a {what} file must be a .py file, got {path}")
+    return path

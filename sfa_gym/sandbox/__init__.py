@@ -1,0 +1,19 @@
+"""Plug-ins out of the evaluator's process: each plug-in file runs in a worker process of its
+own (confined by bubblewrap where the machine allows it), every call into it has a time limit,
+and only numbers and JSON-type values come back. See the trust model in :mod:`sfa_gym.plugins`.
+"""
+
+from __future__ import annotations
+
+from sfa_gym.sandbox.process import PluginCrashed, PluginFailed, PluginTimeout, confinement
+from sfa_gym.sandbox.proxies import IsolatedController, IsolatedMethod, Limits
+
+__all__ = [
+    "IsolatedController",
+    "IsolatedMethod",
+    "Limits",
+    "PluginCrashed",
+    "PluginFailed",
+    "PluginTimeout",
+    "confinement",
+]

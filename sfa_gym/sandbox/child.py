@@ -1,0 +1,159 @@
+"""The worker process of one plug-in: ``python -m sfa_gym.sandbox.child``.
+
+It reads messages (:mod:`sfa_gym.sandbox.wire`) from its standard input and answers each on the
+file descriptor its standard output had at start; the plug-in's own prints go to standard error,
+so that they cannot forge an answer. The first message names the plug-in file, its kind and its
+arguments; the worker imports the file, makes the method or controller and answers with what the
+evaluator may know of it (name, capabilities, filled-in arguments). Every later message is one
+call (``fit``, ``transform``, ``act``, ...) with arrays of views or observations; the answer is
+``{"ok": value}`` or ``{"error": [type names], "message": text}``.
+
+The worker holds only what it was sent: views, panoramas, observations and the rover's own
+sensors. One BLAS thread, as the evaluator computes, so that scores do not depend on where a
+plug-in runs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+import traceback
+from typing import Any, BinaryIO
+
+__all__ = ["main"]
+
+
+def _read_exactly(stream: BinaryIO, n: int) -> bytearray:
+    buffer = bytearray(n)
+    view, got = memoryview(buffer), 0
+    while got < n:
+        count = stream.readinto(view[got:])
+        if not count:
+            raise EOFError("the evaluator closed the pipe")
+        got += count
+    return buffer
+
+
+def _send(stream: BinaryIO, value: Any) -> None:
+    from sfa_gym.sandbox.wire import encode
+
+    for part in encode(value):
+        stream.write(part)
+    stream.flush()
+
+
+def _capabilities(method: Any) -> dict[str, Any]:
+    from sfa_gym.capabilities import get_capabilities
+
+    return dataclasses.asdict(get_capabilities(method))
+
+
+def _rotation(method: Any) -> dict[str, Any] | None:
+    """The training rotation of a method that fits on rotations itself, as its fields."""
+    from sfa_gym.rotation import Rotation
+
+    own = getattr(method, "rotation", None)
+    return dataclasses.asdict(own) if isinstance(own, Rotation) else None
+
+
+def _params(made: Any) -> dict[str, Any]:
+    """``get_params()`` with values that are not JSON types given as their ``repr``."""
+    get_params = getattr(made, "get_params", None)
+    if not callable(get_params):
+        return {}
+    out = {}
+    for key, value in get_params(deep=False).items():
+        plain = value is None or isinstance(value, bool | int | float | str)
+        out[str(key)] = value if plain else repr(value)
+    return out
+
+
+def _load(request: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
+    from pathlib import Path
+
+    import numpy as np
+
+    from sfa_gym.plugins import load_plugin
+
+    plugin = load_plugin(Path(request["path"]), request["kind"])
+    arguments = plugin.arguments(request.get("args") or {})
+    if request["kind"] == "method":
+        made = plugin(**arguments)
+        about = {"capabilities": _capabilities(made), "rotation": _rotation(made)}
+    else:
+        from sfa_gym.navigation.sensors import Rover
+
+        fields = request["rover"]
+        rover = Rover(**{**fields, "range_angles": tuple(fields["range_angles"])})
+        weights = np.asarray(request["weights"], dtype=np.float64)
+        made = plugin.make(rover, weights, **arguments)
+        plugin._check_made(made, ("reset", "act"), "act(obs, info)")
+        about = {}
+    about.update(name=made.name, arguments=arguments, params=_params(made))
+    return made, about
+
+
+CALLS = {
+    "method": ("fit", "fit_rotations", "transform", "transform_rotations"),
+    "controller": ("reset", "act"),
+}
+
+
+def _call(made: Any, kind: str, request: dict[str, Any]) -> Any:
+    call = request["call"]
+    if call not in CALLS[kind]:
+        raise ValueError(f"no call {call!r} for a {kind} (one of {CALLS[kind]})")
+    result = getattr(made, call)(*request.get("args", []))
+    if call in ("fit", "fit_rotations"):
+        shape = getattr(made, "input_shape_", None)
+        return {
+            "input_shape_": None if shape is None else [int(n) for n in shape],
+            "params": _params(made),
+        }
+    return result
+
+
+def _error(error: BaseException) -> dict[str, Any]:
+    names = [cls.__name__ for cls in type(error).__mro__]
+    text = "".join(traceback.format_exception_only(type(error), error)).strip()
+    trace = "".join(traceback.format_exception(error)).strip()
+    return {"error": names, "message": str(error), "text": text, "traceback": trace}
+
+
+def main() -> None:
+    """Serve one plug-in until the evaluator closes the pipe."""
+    # answers go on a private copy of stdout; the plug-in's prints go to stderr
+    answers = os.fdopen(os.dup(1), "wb", buffering=0)
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
+    requests = os.fdopen(os.dup(0), "rb", buffering=0)
+    devnull = os.open(os.devnull, os.O_RDONLY)
+    os.dup2(devnull, 0)
+    sys.stdin = open(os.devnull)  # noqa: SIM115 (the plug-in reads nothing from the pipe)
+
+    from threadpoolctl import threadpool_limits
+
+    from sfa_gym.sandbox.wire import decode
+
+    threadpool_limits(limits=1)
+    made, kind = None, None
+    while True:
+        try:
+            request = decode(lambda n: _read_exactly(requests, n))
+        except EOFError:
+            return
+        try:
+            if made is None:
+                kind = request["kind"]
+                made, about = _load(request)
+                answer: Any = {"ok": about}
+            else:
+                answer = {"ok": _call(made, kind, request)}
+            _send(answers, answer)
+        except Exception as error:  # the evaluator decides what a failure means
+            _send(answers, _error(error))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,273 @@
+"""A plug-in's worker process: started (confined when the machine allows), called with a
+deadline, stopped.
+
+Confinement: where bubblewrap (``bwrap``) can make namespaces, the worker runs with the whole
+filesystem read-only, its own scratch folder the only writable place, the folders it must not
+read (the render cache, the results) hidden behind empty ones, no network and its own PID
+namespace (it sees no other process). Elsewhere it is a plain child process in a scratch folder,
+which :func:`confinement` says once on standard error.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import select
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from sfa_gym.sandbox.wire import WireError, decode, encode
+
+__all__ = ["PluginCrashed", "PluginFailed", "PluginTimeout", "Worker", "confinement"]
+
+
+class PluginTimeout(TimeoutError):
+    """A call into a plug-in ran past its time limit; its worker was stopped."""
+
+
+class PluginCrashed(RuntimeError):
+    """A plug-in's worker died (or answered with something that is not a message)."""
+
+
+class PluginFailed(RuntimeError):
+    """A plug-in raised an exception of a type the evaluator does not rebuild (the message
+    names the type)."""
+
+
+# Exceptions raised in a worker that are raised again in the evaluator with their own type (so a
+# plug-in's ValueError for a bad argument stays a ValueError); any other becomes PluginFailed.
+def _known_errors() -> dict[str, type[Exception]]:
+    from sfa_gym.plugin_files import PluginError
+
+    known: list[type[Exception]] = [
+        PluginError,
+        FileNotFoundError,
+        NotImplementedError,
+        KeyError,
+        IndexError,
+        ValueError,
+        TypeError,
+        AttributeError,
+        MemoryError,
+        ArithmeticError,
+        AssertionError,
+        OSError,
+        RuntimeError,
+    ]
+    return {cls.__name__: cls for cls in known}
+
+
+# No network, no view of other processes or their shared memory, and no capabilities: bwrap run
+# by root keeps them all by default, with which a worker could remount the filesystem writable.
+def _rebuilt(answer: dict[str, Any], label: str, what: str) -> Exception:
+    """The exception a worker reported, of its own type when :func:`_known_errors` has it, with
+    the worker's traceback as a note (shown under the evaluator's traceback)."""
+    names, message = answer["error"], str(answer.get("message", ""))
+    known = _known_errors()
+    found = next((known[n] for n in names if n in known), None) if isinstance(names, list) else None
+    error: Exception
+    if found is None:
+        error = PluginFailed(f"the plug-in {label} failed in {what}: {answer.get('text')}")
+    else:
+        error = found(message)
+    trace = answer.get("traceback")
+    if isinstance(trace, str):
+        error.add_note(f"in the worker process of the plug-in {label} ({what}):\n{trace}")
+    return error
+
+
+BWRAP_FLAGS = (
+    "--unshare-net",
+    "--unshare-pid",
+    "--unshare-ipc",
+    "--unshare-uts",
+    "--cap-drop",
+    "ALL",
+    "--die-with-parent",
+    "--new-session",
+)
+
+
+@functools.cache
+def confinement() -> str | None:
+    """The path of a working ``bwrap``, or None (said once on standard error): then workers run
+    as plain child processes."""
+    bwrap = shutil.which("bwrap")
+    if bwrap is not None:
+        probe = [bwrap, "--ro-bind", "/", "/", "--dev", "/dev", "--proc", "/proc", *BWRAP_FLAGS]
+        try:
+            done = subprocess.run([*probe, "true"], capture_output=True, timeout=30)
+        except (OSError, subprocess.TimeoutExpired):
+            done = None
+        if done is not None and done.returncode == 0:
+            return bwrap
+        why = "bwrap cannot make namespaces here" + (
+            f" ({done.stderr.decode(errors='replace').strip()})" if done is not None else ""
+        )
+    else:
+        why = "bubblewrap (bwrap) is not installed"
+    print(
+        f"sfa-gym: plug-ins run in plain worker processes, not confined: {why}; they cannot see "
+        "the evaluator's objects but can read and write what this user can",
+        file=sys.stderr,
+    )
+    return None
+
+
+def _command(scratch: Path, hidden: Sequence[Path]) -> list[str]:
+    command = [sys.executable, "-m", "sfa_gym.sandbox.child"]
+    bwrap = confinement()
+    if bwrap is None:
+        return command
+    confine = [bwrap, "--ro-bind", "/", "/", "--dev", "/dev", "--proc", "/proc"]
+    for folder in hidden:
+        if folder.is_dir():  # an empty folder over it: the worker cannot read what it holds
+            confine += ["--tmpfs", str(folder)]
+    confine += ["--bind", str(scratch), str(scratch), "--chdir", str(scratch), *BWRAP_FLAGS]
+    return [*confine, "--", *command]
+
+
+class Worker:
+    """One plug-in's worker process.
+
+    Args:
+        label: how messages name the plug-in (its file).
+        hidden: folders the worker must not read (confined workers only).
+    """
+
+    def __init__(self, label: str, hidden: Sequence[str | os.PathLike[str]] = ()) -> None:
+        import sfa_gym
+
+        self.label = label
+        self.scratch = Path(tempfile.mkdtemp(prefix="sfa-gym-plugin-"))
+        package_parent = str(Path(sfa_gym.__file__).resolve().parent.parent)
+        path = os.environ.get("PYTHONPATH")
+        env = {
+            **os.environ,
+            # the worker imports the evaluator's own copy of sfa_gym, wherever it runs from
+            "PYTHONPATH": package_parent + (os.pathsep + path if path else ""),
+            "TMPDIR": str(self.scratch),
+            "HOME": str(self.scratch),
+        }
+        command = _command(self.scratch, [Path(h).resolve() for h in hidden])
+        self.process: subprocess.Popen[bytes] | None = subprocess.Popen(
+            command,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            cwd=self.scratch,
+            env=env,
+            bufsize=0,
+            start_new_session=True,  # its own process group: stopped as a whole
+        )
+        os.set_blocking(self.process.stdin.fileno(), False)  # type: ignore[union-attr]
+
+    def call(self, request: dict[str, Any], limit: float, what: str) -> Any:
+        """Send ``request``, wait at most ``limit`` seconds for the answer, return its value.
+
+        Raises:
+            PluginTimeout: no answer within ``limit`` (the worker is stopped).
+            PluginCrashed: the worker died or answered with a malformed message.
+            PluginError, ValueError, TypeError, ...: the plug-in raised it (see
+                :func:`_known_errors`); PluginFailed: it raised something else.
+        """
+        if self.process is None:
+            raise PluginCrashed(f"the plug-in {self.label}'s worker is already stopped")
+        deadline = time.monotonic() + limit
+        try:
+            self._write(encode(request), deadline)
+            answer = decode(lambda n: self._read_exactly(n, deadline))
+        except TimeoutError:
+            self.stop()
+            raise PluginTimeout(
+                f"the plug-in {self.label} took longer than its limit of {limit:g} s for "
+                f"{what}; its worker was stopped"
+            ) from None
+        except (EOFError, BrokenPipeError, WireError) as error:
+            try:  # a worker that closed its pipe is exiting: its exit code says how
+                self.process.wait(5)  # type: ignore[union-attr]
+            except subprocess.TimeoutExpired:
+                pass
+            code = self.stop()
+            how = f"died with exit code {code}" if code else f"sent a malformed answer ({error})"
+            raise PluginCrashed(f"the plug-in {self.label}'s worker {how} during {what}") from None
+        if not isinstance(answer, dict) or not ({"ok"} == set(answer) or "error" in answer):
+            self.stop()
+            raise PluginCrashed(f"the plug-in {self.label} sent a malformed answer to {what}")
+        if "error" in answer:
+            raise _rebuilt(answer, self.label, what)
+        return answer["ok"]
+
+    def _write(self, parts: list[bytes | memoryview], deadline: float) -> None:
+        fd = self.process.stdin.fileno()  # type: ignore[union-attr]
+        for part in parts:
+            view, sent = memoryview(part).cast("B"), 0
+            while sent < len(view):
+                _wait(fd, deadline, write=True)
+                try:
+                    sent += os.write(fd, view[sent : sent + 2**20])
+                except BlockingIOError:
+                    continue
+
+    def _read_exactly(self, n: int, deadline: float) -> bytearray:
+        fd = self.process.stdout.fileno()  # type: ignore[union-attr]
+        buffer = bytearray(n)
+        view, got = memoryview(buffer), 0
+        while got < n:
+            _wait(fd, deadline, write=False)
+            count = os.readv(fd, [view[got:]])
+            if count == 0:
+                raise EOFError
+            got += count
+        return buffer
+
+    def stop(self) -> int | None:
+        """Kill the worker and its process group, remove its scratch folder; its exit code."""
+        process, self.process = self.process, None
+        if process is None:
+            return None
+        code = process.poll()
+        if code is None:
+            try:
+                os.killpg(process.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            process.wait()
+        for stream in (process.stdin, process.stdout):
+            if stream is not None:
+                stream.close()
+        shutil.rmtree(self.scratch, ignore_errors=True)
+        return code
+
+    def close(self, grace: float = 5.0) -> None:
+        """End the worker: it exits when its input closes (killed after ``grace`` seconds)."""
+        process = self.process
+        if process is None:
+            return
+        try:
+            process.stdin.close()  # type: ignore[union-attr]
+            process.wait(grace)
+        except (OSError, subprocess.TimeoutExpired):
+            pass
+        self.stop()
+
+    def __del__(self) -> None:
+        if getattr(self, "process", None) is not None:
+            self.stop()
+
+
+def _wait(fd: int, deadline: float, *, write: bool) -> None:
+    """Block until ``fd`` is ready, or raise TimeoutError at ``deadline``."""
+    remaining = deadline - time.monotonic()
+    if remaining <= 0:
+        raise TimeoutError
+    waiting = ([], [fd]) if write else ([fd], [])
+    ready = select.select(*waiting, [], remaining)
+    if not any(ready):
+        raise TimeoutError

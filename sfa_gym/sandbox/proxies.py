@@ -1,0 +1,234 @@
+"""The evaluator's side of an isolated plug-in: a method or controller whose calls run in the
+plug-in's worker process (:class:`~sfa_gym.sandbox.process.Worker`), each within its time limit.
+
+What crosses to the worker is what the protocol gives a plug-in: views and panoramas (never
+their poses), and for a controller its observation (features) and the rover's own sensors
+(:data:`~sfa_gym.navigation.sensors.ROVER_SENSORS`). What comes back is checked here: numbers
+and arrays of numbers where features or actions are expected.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sfa_gym.capabilities import Capabilities
+from sfa_gym.plugin_files import PluginError, resolve_plugin
+from sfa_gym.sandbox.process import Worker
+
+__all__ = ["IsolatedController", "IsolatedMethod", "Limits"]
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Wall-clock limit of each kind of call into a plug-in, seconds (generous: a limit stops a
+    plug-in that hangs, it does not rank fast ones)."""
+
+    load: float = 300.0
+    """importing the file and making the method or controller"""
+    fit: float = 1800.0
+    """``fit`` or ``fit_rotations``"""
+    transform: float = 600.0
+    """one ``transform`` or ``transform_rotations`` (a block of a few thousand views)"""
+    reset: float = 10.0
+    """a controller's ``reset``"""
+    act: float = 1.0
+    """one ``act`` of a controller"""
+
+    @classmethod
+    def of(cls, seconds: Mapping[str, float] | None) -> Limits:
+        """The defaults with ``seconds`` (``{"fit": 60}``) applied.
+
+        Raises:
+            ValueError: a key that is not a kind of call (the message lists them), or a limit
+                that is not a positive number.
+        """
+        seconds = dict(seconds or {})
+        known = [field.name for field in dataclasses.fields(cls)]
+        unknown = sorted(set(seconds) - set(known))
+        if unknown:
+            raise ValueError(f"no time limit named {unknown}; the limits are {known}")
+        return cls(**seconds)
+
+    def __post_init__(self) -> None:
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+                raise ValueError(
+                    f"time limit {field.name} must be a positive number of seconds, got {value!r}"
+                )
+
+
+class _Isolated:
+    """The worker of one plug-in file, loaded with its arguments."""
+
+    kind: str
+
+    def __init__(
+        self,
+        source: str | os.PathLike[str],
+        args: Mapping[str, Any] | None,
+        limits: Limits | None,
+        hidden: Sequence[str | os.PathLike[str]],
+        **loading: Any,
+    ) -> None:
+        self.path = resolve_plugin(source, self.kind)  # type: ignore[arg-type]
+        self.limits = limits or Limits()
+        self._worker = Worker(str(self.path), hidden)
+        request = {"path": str(self.path), "kind": self.kind, "args": dict(args or {}), **loading}
+        try:
+            about = self._worker.call(request, self.limits.load, "loading")
+        except BaseException:
+            self._worker.stop()
+            raise
+        if not isinstance(about, dict) or not isinstance(about.get("name"), str):
+            self._worker.stop()
+            raise PluginError(f"{self.path} made a {self.kind} without a name: str")
+        self.name: str = about["name"]
+        self.arguments: dict[str, Any] = dict(about.get("arguments") or {})
+        """every field of the plug-in's ``Args`` with the arguments applied (what results record)"""
+        self._params: dict[str, Any] = dict(about.get("params") or {})
+        self._about = about
+
+    def _call(self, call: str, limit: float, *args: Any) -> Any:
+        return self._worker.call({"call": call, "args": list(args)}, limit, f"{call}()")
+
+    def close(self) -> None:
+        """Stop the worker (the proxy is unusable afterwards)."""
+        self._worker.close()
+
+    def __enter__(self) -> _Isolated:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r}, {str(self.path)!r})"
+
+
+def _numbers(value: Any, who: str, what: str) -> NDArray[Any]:
+    """``value`` as an array of real numbers, or a PluginError naming ``who`` and ``what``."""
+    if isinstance(value, list):
+        try:
+            value = np.asarray(value)
+        except ValueError:
+            pass
+    if not isinstance(value, np.ndarray) or value.dtype.kind not in "biuf":
+        shown = f"an array of {value.dtype}" if isinstance(value, np.ndarray) else repr(value)[:80]
+        raise PluginError(f"{who}: {what} must be an array of real numbers, got {shown}")
+    return value
+
+
+class IsolatedMethod(_Isolated):
+    """A feature method (the plug-in contract of :mod:`sfa_gym.plugins`) running in its own
+    worker process: ``name``, ``capabilities``, ``rotation`` (methods that fit on rotations
+    themselves), ``fit``, ``fit_rotations``, ``transform``, ``transform_rotations``, after
+    fitting ``input_shape_``, and ``get_params`` (the method's own, values that are not JSON
+    types as their ``repr``).
+
+    Args:
+        source: a built-in name or a plug-in file (:func:`~sfa_gym.plugins.resolve_plugin`).
+        args: keyword arguments of the plug-in's ``Args`` (JSON types), checked in the worker.
+        limits: the time limits (default :class:`Limits`).
+        hidden: folders the worker must not read (the render cache, the results).
+    """
+
+    kind = "method"
+
+    def __init__(
+        self,
+        source: str | os.PathLike[str],
+        args: Mapping[str, Any] | None = None,
+        limits: Limits | None = None,
+        hidden: Sequence[str | os.PathLike[str]] = (),
+    ) -> None:
+        from sfa_gym.rotation import Rotation
+
+        super().__init__(source, args, limits, hidden)
+        try:
+            found = dict(self._about["capabilities"])
+            found["extra_regressors"] = tuple(found.get("extra_regressors", ()))
+            self.capabilities = Capabilities(**found)
+            rotation = self._about.get("rotation")
+            if rotation is not None:
+                self.rotation = Rotation(**rotation)
+        except (TypeError, ValueError, KeyError) as error:
+            self.close()
+            raise PluginError(f"{self.path} reported unreadable capabilities: {error}") from None
+
+    def _fitted(self, call: str, *args: Any) -> IsolatedMethod:
+        found = self._call(call, self.limits.fit, *args)
+        shape = found.get("input_shape_") if isinstance(found, dict) else None
+        if shape is not None:
+            self.input_shape_ = tuple(int(n) for n in shape)
+        self._params = dict(found.get("params") or self._params)
+        return self
+
+    def fit(self, views: ArrayLike, sequence_ids: ArrayLike | None = None) -> IsolatedMethod:
+        # called as the caller called it: a method may take no sequence_ids at all
+        if sequence_ids is None:
+            return self._fitted("fit", np.asarray(views))
+        return self._fitted("fit", np.asarray(views), np.asarray(sequence_ids))
+
+    def fit_rotations(self, panoramas: ArrayLike) -> IsolatedMethod:
+        return self._fitted("fit_rotations", np.asarray(panoramas))
+
+    def transform(self, views: ArrayLike) -> NDArray[Any]:
+        found = self._call("transform", self.limits.transform, np.asarray(views))
+        return _numbers(found, self.name, "transform(views)")
+
+    def transform_rotations(self, panoramas: ArrayLike, step: int) -> NDArray[Any]:
+        found = self._call(
+            "transform_rotations", self.limits.transform, np.asarray(panoramas), int(step)
+        )
+        return _numbers(found, self.name, "transform_rotations(panoramas, step)")
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        return dict(self._params)
+
+
+class IsolatedController(_Isolated):
+    """A navigation controller plug-in running in its own worker process: ``reset(obs, info)``
+    and ``act(obs, info)`` send the observation and only the rover's own sensors of ``info``.
+
+    Args:
+        source: a built-in name or a controller plug-in file.
+        rover: the :class:`~sfa_gym.navigation.sensors.Rover` it drives.
+        weights: the cost weights of the features ``(k,)``.
+        args, limits, hidden: as for :class:`IsolatedMethod`.
+    """
+
+    kind = "controller"
+
+    def __init__(
+        self,
+        source: str | os.PathLike[str],
+        rover: Any,
+        weights: ArrayLike,
+        args: Mapping[str, Any] | None = None,
+        limits: Limits | None = None,
+        hidden: Sequence[str | os.PathLike[str]] = (),
+    ) -> None:
+        rover_fields = dataclasses.asdict(rover)
+        weights = np.asarray(weights, dtype=np.float64)
+        super().__init__(source, args, limits, hidden, rover=rover_fields, weights=weights)
+
+    @staticmethod
+    def _seen(obs: Mapping[str, Any], info: Mapping[str, Any]) -> list[Any]:
+        from sfa_gym.navigation.sensors import SensorsOnly
+
+        return [dict(obs), SensorsOnly.sensors(info)]
+
+    def reset(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> None:
+        self._call("reset", self.limits.reset, *self._seen(obs, info))
+
+    def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[Any]:
+        found = self._call("act", self.limits.act, *self._seen(obs, info))
+        return _numbers(found, self.name, "act(obs, info)")

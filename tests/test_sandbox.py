@@ -1,0 +1,234 @@
+"""Plug-ins in worker processes (sfa_gym.sandbox): an honest plug-in gives the features it gives
+in-process; a hostile one sees none of the evaluator's objects, cannot write outside its scratch
+folder (under bubblewrap), is stopped at its time limit or reported when it dies; a controller
+sees only its observation and the rover's own sensors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sfa_gym  # noqa: F401  (registers the envs)
+from sfa_gym.navigation.field import FeatureField
+from sfa_gym.navigation.sensors import ROVER_SENSORS, Rover
+from sfa_gym.plugins import PluginError, load_method, load_method_plugin
+from sfa_gym.sandbox import (
+    IsolatedController,
+    IsolatedMethod,
+    Limits,
+    PluginCrashed,
+    PluginTimeout,
+    confinement,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+BAND_MEANS = ROOT / "baselines" / "band_means.py"
+
+HEADER = """
+from dataclasses import dataclass
+import numpy as np
+
+@dataclass(frozen=True)
+class Args:
+    target: str = ""
+
+class Method:
+    name = "hostile"
+    def __init__(self, target=""):
+        self.target = target
+    def fit(self, views, sequence_ids=None):
+        self.input_shape_ = views.shape[1:]
+        return self
+    def transform(self, views):
+        return np.repeat(np.asarray([self.look()], dtype=np.float64), len(views), axis=0)
+"""
+
+
+def _plugin(tmp_path: Path, text: str, name: str = "hostile.py") -> Path:
+    path = tmp_path / name
+    path.write_text(HEADER + text + "\nMETHOD = Method\n")
+    return path
+
+
+def _views(n: int = 6) -> np.ndarray:
+    return np.random.default_rng(0).integers(0, 256, (n, 8, 24, 3), dtype=np.uint8)
+
+
+def test_an_honest_plugin_gives_the_same_features_isolated():
+    views = _views(40)
+    inside = load_method_plugin(BAND_MEANS)(n_bands=4).fit(views)
+    with load_method(BAND_MEANS, {"n_bands": 4}) as isolated:
+        assert isinstance(isolated, IsolatedMethod)
+        assert isolated.name == inside.name
+        assert isolated.capabilities == inside.capabilities
+        assert isolated.get_params() == inside.get_params()
+        assert isolated.fit(views) is isolated and isolated.input_shape_ == inside.input_shape_
+        features = isolated.transform(views)
+    expected = inside.transform(views)
+    assert features.dtype == expected.dtype and np.array_equal(features, expected)
+
+
+SPY = """
+    def look(self):
+        import gc, sys
+        frames, names, frame = 0, set(), sys._getframe()
+        while frame is not None:
+            frames += frame.f_globals.get("__name__", "").startswith(("tests", "test_"))
+            names |= set(frame.f_locals)
+            frame = frame.f_back
+        secrets = sum(type(o).__name__ == "EvaluatorSecret" for o in gc.get_objects())
+        envs = sum("OmniRover" in type(o).__name__ for o in gc.get_objects())
+        return [frames, "secret_positions" in names, secrets, envs]
+"""
+
+
+class EvaluatorSecret:
+    """Ground truth an evaluator holds while it calls a plug-in."""
+
+
+def test_a_plugin_sees_none_of_the_evaluators_objects(tmp_path):
+    secret_positions = EvaluatorSecret()  # noqa: F841  (in this frame, where a spy would look)
+    env = gym.make("sfa_gym/OmniRover-v0")
+    try:
+        with load_method(_plugin(tmp_path, SPY)) as method:
+            found = method.fit(_views()).transform(_views())
+    finally:
+        env.close()
+    frames, saw_name, secrets, envs = found[0]
+    assert (frames, saw_name, secrets, envs) == (0, 0, 0, 0)
+    # the same plug-in in-process finds them all: the test can fail
+    inside = load_method(_plugin(tmp_path, SPY, "inside.py"), isolated=False).fit(_views())
+    frames, saw_name, secrets, envs = inside.transform(_views())[0]
+    assert frames >= 1 and saw_name and secrets == 1 and envs >= 1
+
+
+WRITER = """
+    def look(self):
+        import os, subprocess
+        from pathlib import Path
+        subprocess.run(["mount", "-o", "remount,rw", "/"], capture_output=True)  # as root
+        try:
+            Path(self.target, "written.txt").write_text("forged")
+            outside = 1.0
+        except OSError:
+            outside = 0.0
+        Path("scratch.txt").write_text("mine")  # its own folder is writable
+        return [outside, float(os.path.exists(Path(self.target, "hidden", "poses.npy")))]
+"""
+
+
+def test_a_confined_plugin_cannot_write_outside_or_read_hidden_folders(tmp_path):
+    if confinement() is None:
+        pytest.skip("no working bubblewrap here: plug-ins run unconfined (see sfa_gym.sandbox)")
+    outside = tmp_path / "results"
+    (outside / "hidden").mkdir(parents=True)
+    (outside / "hidden" / "poses.npy").write_bytes(b"ground truth")
+    path = _plugin(tmp_path, WRITER)
+    with load_method(path, {"target": str(outside)}, hidden=[outside / "hidden"]) as method:
+        wrote, saw = method.fit(_views()).transform(_views())[0]
+    assert (wrote, saw) == (0.0, 0.0)
+    assert not (outside / "written.txt").exists()
+
+
+def test_a_plugin_that_hangs_is_stopped_at_its_limit(tmp_path):
+    sleeper = "    def look(self):\n        return [0.0]\n" + (
+        "    def fit(self, views, sequence_ids=None):\n        import time; time.sleep(600)\n"
+    )
+    method = load_method(_plugin(tmp_path, sleeper), limits=Limits(fit=2.0))
+    with pytest.raises(PluginTimeout, match=r"hostile\.py took longer than its limit of 2 s"):
+        method.fit(_views())
+    with pytest.raises(PluginCrashed, match="already stopped"):
+        method.transform(_views())
+
+
+def test_a_plugin_that_dies_is_reported_with_its_exit_code(tmp_path):
+    dying = "    def look(self):\n        import os; os._exit(3)\n"
+    with load_method(_plugin(tmp_path, dying)) as method:
+        method.fit(_views())
+        with pytest.raises(PluginCrashed, match=r"hostile\.py's worker died with exit code 3"):
+            method.transform(_views())
+
+
+def test_wrong_outputs_and_arguments_are_refused_naming_the_plugin(tmp_path):
+    words = "    def transform(self, views):\n        return [['go']] * len(views)\n"
+    with load_method(_plugin(tmp_path, words)) as method:
+        with pytest.raises(PluginError, match="hostile: transform"):
+            method.fit(_views()).transform(_views())
+    with pytest.raises(ValueError, match="unknown argument 'n_band'") as raised:
+        load_method(BAND_MEANS, {"n_band": 3})
+    assert "in the worker process of the plug-in" in raised.value.__notes__[0]  # its traceback
+    with pytest.raises(ValueError, match="time limit act"):
+        Limits(act=0)
+
+
+CONTROLLER = """
+from dataclasses import dataclass
+import gc
+import numpy as np
+
+@dataclass(frozen=True)
+class Args:
+    speed: float = 0.2
+
+class Spy:
+    name = "spy"
+    def reset(self, obs, info):
+        self.seen = sorted(info)
+    def act(self, obs, info):
+        envs = sum("OmniRover" in type(o).__name__ for o in gc.get_objects())
+        cheated = self.seen != sorted(info) or envs > 0 or "x" in info
+        return np.array([float(cheated), float(len(self.seen)), -1.0], dtype=np.float32)
+
+def make_controller(rover, weights, speed=0.2):
+    return Spy()
+"""
+
+
+def test_a_controller_never_receives_ground_truth(tmp_path):
+    path = tmp_path / "spy.py"
+    path.write_text(CONTROLLER)
+    xs = np.linspace(-3.0, 3.0, 13)
+    gx, gy = np.meshgrid(xs, xs)
+    field = FeatureField(np.stack([gx, gy], axis=-1), (-3.0, 3.0, -3.0, 3.0))
+    env = gym.make("sfa_gym/OmniRoverNav-v0", feature_field=field)
+    try:
+        obs, info = env.reset(seed=3)
+        assert {"x", "y", "goal"} <= set(info)  # the env knows the pose ...
+        with IsolatedController(path, Rover.of(env), [1.0, 1.0]) as controller:
+            controller.reset(obs, info)
+            action = controller.act(obs, info)  # ... the controller does not
+    finally:
+        env.close()
+    assert action.dtype == np.float32
+    assert action.tolist() == [0.0, float(len(ROVER_SENSORS)), -1.0]
+
+
+SLOW_FIT = """
+
+class SlowFit(BandMeans):
+    def fit(self, views, sequence_ids=None):
+        import time
+        time.sleep(600)
+
+
+def make_method(**args):
+    return SlowFit(**args)
+"""
+
+
+def test_a_leaderboard_task_runs_its_method_isolated_with_its_time_limits(tmp_path):
+    from test_leaderboard import TINY, _write_track
+
+    from sfa_gym.leaderboard.evaluate import Task, run_task
+
+    track = str(_write_track(tmp_path / "tracks", TINY))
+    slow = tmp_path / "slow.py"
+    slow.write_text(BAND_MEANS.read_text() + SLOW_FIT)
+    cache = str(tmp_path / "cache")
+    with pytest.raises(PluginTimeout, match=r"slow\.py took longer than its limit of 2 s for fit"):
+        run_task(Task(track, str(slow), {}, 100, cache_dir=cache, time_limits={"fit": 2}))
+    with pytest.raises(ValueError, match=r"no time limit named \['fitt'\]"):
+        run_task(Task(track, str(BAND_MEANS), {}, 100, cache_dir=cache, time_limits={"fitt": 1}))
