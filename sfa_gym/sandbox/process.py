@@ -64,8 +64,6 @@ def _known_errors() -> dict[str, type[Exception]]:
     return {cls.__name__: cls for cls in known}
 
 
-# No network, no view of other processes or their shared memory, and no capabilities: bwrap run
-# by root keeps them all by default, with which a worker could remount the filesystem writable.
 def _rebuilt(answer: dict[str, Any], label: str, what: str) -> Exception:
     """The exception a worker reported, of its own type when :func:`_known_errors` has it, with
     the worker's traceback as a note (shown under the evaluator's traceback)."""
@@ -83,6 +81,8 @@ def _rebuilt(answer: dict[str, Any], label: str, what: str) -> Exception:
     return error
 
 
+# No network, no view of other processes or their shared memory, and no capabilities: bwrap run
+# by root keeps them all by default, with which a worker could remount the filesystem writable.
 BWRAP_FLAGS = (
     "--unshare-net",
     "--unshare-pid",
