@@ -42,7 +42,6 @@ Writes ``published/benchmarks/field.json`` (``--json``) and prints a table.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import tempfile
@@ -55,6 +54,7 @@ from tqdm import tqdm
 
 from sfa_gym.experiments.grid import GridExperiment
 from sfa_gym.features import rotation_averaged_features
+from sfa_gym.files import write_json_atomic
 from sfa_gym.navigation.field import INTERPOLATIONS, FeatureField
 from sfa_gym.protocols.grid import training_panoramas
 from sfa_gym.protocols.settings import SFASettings
@@ -370,7 +370,7 @@ def main(argv: list[str] | None = None) -> int:
             f"to the heading mean: {results['closest_to_rendered'][spacing]}"
         )
     args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(results, indent=1, allow_nan=False))
+    write_json_atomic(args.json, results)
     print(f"results: {args.json}")
     return 0
 

@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import Any
 
 import sfa_gym
+from sfa_gym.files import write_json_atomic
 from sfa_gym.leaderboard.backends import run_tasks
 from sfa_gym.leaderboard.evaluate import Task
 from sfa_gym.leaderboard.results import git_commit
@@ -295,7 +296,7 @@ def main(argv: list[str] | None = None) -> int:
 def _write(report: dict[str, Any], started: float, path: Path) -> int:
     report["seconds"] = round(time.perf_counter() - started, 2)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(report, indent=1, allow_nan=False))
+    write_json_atomic(path, report)
     print(f"wrote {path}")
     return 0
 

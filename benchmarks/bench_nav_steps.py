@@ -33,7 +33,6 @@ Usage (from the repository root)::
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 from pathlib import Path
@@ -44,6 +43,7 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
 import sfa_gym  # noqa: E402, F401  (registers the ids)
+from sfa_gym.files import write_json_atomic
 from sfa_gym.navigation.controllers import GradientController  # noqa: E402
 from sfa_gym.navigation.field import FeatureField  # noqa: E402
 
@@ -160,7 +160,7 @@ def main() -> None:
         }
     if args.json:
         payload = {"steps_per_second": results}
-        args.json.write_text(json.dumps(payload, indent=1, allow_nan=False))
+        write_json_atomic(args.json, payload)
 
 
 if __name__ == "__main__":

@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym.files import write_json_atomic
 from sfa_gym.sfa.synthetic import landmark_panoramas, smooth_path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -636,7 +637,7 @@ def main(argv: list[str] | None = None) -> int:
     print("BLAS kernel:", results["machine"]["blas_core"])
     path = Path(cfg.json_path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(results, indent=2) + "\n")
+    write_json_atomic(path, results, indent=2)
     print(f"wrote {path}")
     return 0
 

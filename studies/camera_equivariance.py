@@ -36,7 +36,6 @@ Usage (from the repository root)::
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -47,6 +46,7 @@ from tqdm import tqdm
 
 from sfa_gym.experiments.grid import GridExperiment
 from sfa_gym.features import rotation_averaged_features
+from sfa_gym.files import write_json_atomic
 from sfa_gym.protocols.grid import training_panoramas
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.sim.camera import PanoramaSpec
@@ -286,7 +286,7 @@ def main(args: Args) -> None:
         results["wobble"] = wobble_part(settings, grid, n_train, n_pos, n_head)
         print(format_wobble(results["wobble"]))
     args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(results, indent=1) + "\n")
+    write_json_atomic(args.json, results)
     if args.png is not None:
         save_figure(args.png, pixels)
         print(f"figure: {args.png}")

@@ -33,6 +33,7 @@ import numpy as np
 import tyro
 
 import sfa_gym  # noqa: F401  (registers the ids)
+from sfa_gym.files import write_json_atomic
 from sfa_gym.navigation.controllers import GradientController, GradientSettings
 from sfa_gym.navigation.evaluate import run_episodes, summarize
 from sfa_gym.navigation.field import FeatureField
@@ -141,7 +142,7 @@ def main(args: Args) -> None:
         print(f"| {name} | " + " | ".join(cells) + f" | {len(mine)} |")
     if args.json:
         payload = {"episodes": args.episodes, "rows": rows}
-        args.json.write_text(json.dumps(payload, indent=1, allow_nan=False))
+        write_json_atomic(args.json, payload)
 
 
 if __name__ == "__main__":

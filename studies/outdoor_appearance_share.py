@@ -26,6 +26,8 @@ from pathlib import Path
 import numpy as np
 import tyro
 
+from sfa_gym.files import write_json_atomic
+
 
 @dataclass(frozen=True)
 class Args:
@@ -104,7 +106,7 @@ def main(args: Args) -> None:
         scores[f"drop {dropped}"] = entry
 
     found = {"appearance_share": share.tolist(), "map_decoder": scores}
-    (args.out / "appearance_share.json").write_text(json.dumps(found, indent=1))
+    write_json_atomic(args.out / "appearance_share.json", found)
     print("appearance share per output:", " ".join(f"{s:.4f}" for s in share))
     for name, entry in scores.items():
         cells = " | ".join(

@@ -24,7 +24,6 @@ Usage (from the repository root)::
 from __future__ import annotations
 
 import csv
-import json
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -33,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 import tyro
+
+from sfa_gym.files import write_json_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 AGENT = ROOT / "baselines" / "agents" / "ppo_nav.py"
@@ -200,7 +201,7 @@ def main(args: Args) -> None:
     plot(args.out, list(args.methods))
     summary = summarize(args.out, list(args.methods), args.at)
     name = "summary.json" if args.at is None else f"summary_at_{args.at}.json"
-    (args.out / name).write_text(json.dumps(summary, indent=1))
+    write_json_atomic(args.out / name, summary)
     print(f"{'method':<30}{'seeds':>6}{'steps':>10}{'success':>9}{'range':>13}{'SPL':>7}")
     for method, s in summary.items():
         print(

@@ -556,7 +556,7 @@ def make_method(rows=40):
 
 
 def test_navigation_task_in_the_obstacle_world_reuses_the_renders(tmp_path):
-    from sfa_gym._files import strict_json
+    from sfa_gym.files import strict_json
     from sfa_gym.leaderboard.evaluate import Task, run_task
 
     track = _write_track(tmp_path / "tracks", NAV_TINY)

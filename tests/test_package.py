@@ -127,7 +127,7 @@ def test_sfa_engine_imports_neither_gymnasium_nor_mujoco():
                         "sfa_gym._types",
                         "sfa_gym._checks",
                         "sfa_gym.rotation",
-                        "sfa_gym._files",
+                        "sfa_gym.files",
                         "sfa_gym.capabilities",  # the declaration of what a model can do
                     )
                 ), f"{path.name} imports {name}"

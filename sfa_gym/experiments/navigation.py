@@ -134,8 +134,8 @@ def run_navigation_experiment(
     """
     import matplotlib.pyplot as plt
 
-    from sfa_gym._files import write_json_atomic
     from sfa_gym.features import EmbeddedFeatures
+    from sfa_gym.files import write_json_atomic
     from sfa_gym.navigation.controllers import (
         GradientController,
         OracleController,

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import sfa_gym
-from sfa_gym._files import write_atomic
+from sfa_gym.files import write_atomic
 from sfa_gym.localization.metrics import mae_dict
 from sfa_gym.rotation import n_rotations
 

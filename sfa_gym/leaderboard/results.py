@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 import sfa_gym
-from sfa_gym._files import write_json_atomic
+from sfa_gym.files import write_json_atomic
 
 __all__ = [
     "FORMAT",

@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 import sfa_gym
-from sfa_gym._files import write_json_atomic
+from sfa_gym.files import write_json_atomic
 from sfa_gym.leaderboard.results import result_path
 from sfa_gym.leaderboard.tracks import Track
 

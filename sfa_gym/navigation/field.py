@@ -46,7 +46,7 @@ of small jumps, e.g. when an edge crosses a pixel row), and the error shrinks ro
 square root of the spacing. The spread over headings (step 1) is ~0.05 of the change over 0.1 m.
 
 File format (version 1): one ``.npz`` archive as ``np.savez`` writes it (uncompressed), read
-with ``allow_pickle=False``, written atomically (:func:`sfa_gym._files.write_atomic`):
+with ``allow_pickle=False``, written atomically (:func:`sfa_gym.files.write_atomic`):
 
 - ``header``: 0-d unicode array holding a JSON object::
 
@@ -87,9 +87,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sfa_gym._files import check_format_header, read_npy_header, strict_json, write_atomic
 from sfa_gym.capabilities import get_capabilities
 from sfa_gym.features import rotation_averaged_features
+from sfa_gym.files import check_format_header, read_npy_header, strict_json, write_atomic
 
 __all__ = [
     "FORMAT",

@@ -317,7 +317,7 @@ class RunCache:
             return self._render(request, path)
 
     def _render(self, request: RunRequest, path: Path) -> Any:
-        from sfa_gym._files import write_json_atomic
+        from sfa_gym.files import write_json_atomic
         from sfa_gym.recording.recorder import record
         from sfa_gym.recording.runfile import load_run
 

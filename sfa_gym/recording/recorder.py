@@ -29,7 +29,7 @@ from tqdm.auto import tqdm
 
 import sfa_gym
 from sfa_gym._checks import check_positive_int
-from sfa_gym._files import strict_json
+from sfa_gym.files import strict_json
 from sfa_gym.recording.drivers import Driver, GridPositions, env_attribute
 from sfa_gym.recording.runfile import (
     _ARRAYS,

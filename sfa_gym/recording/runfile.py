@@ -35,7 +35,7 @@ A run is a directory ``<name>.run/`` holding
 Each chunk entry may carry ``"sha256"``, the SHA-256 of the chunk file (hex). It was added
 without a version bump: runs written before have no checksums and load as before (unchecked),
 and older readers ignore the key. Every file is written atomically
-(:func:`sfa_gym._files.write_atomic`: a temporary file in the same directory, fsync,
+(:func:`sfa_gym.files.write_atomic`: a temporary file in the same directory, fsync,
 ``os.replace``), the header as strict JSON (no NaN or infinity), and the header is rewritten
 after each chunk, so an interrupted recording leaves a valid, ``"complete": false`` run of whole
 chunks. :func:`~sfa_gym.recording.recorder.record` resumes it: it resets the env with the same
@@ -68,7 +68,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import sfa_gym
-from sfa_gym._files import read_npy_header, write_atomic, write_json_atomic
+from sfa_gym.files import read_npy_header, write_atomic, write_json_atomic
 
 __all__ = [
     "FORMAT",

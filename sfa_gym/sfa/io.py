@@ -51,7 +51,7 @@ from typing import IO, Any
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
-from sfa_gym._files import check_format_header, read_npy_header, strict_json, write_atomic
+from sfa_gym.files import check_format_header, read_npy_header, strict_json, write_atomic
 from sfa_gym.sfa._layers import Affine, LayerParams
 from sfa_gym.sfa._weights import affine_shapes, check_weight_sharing
 from sfa_gym.sfa.network import HierarchicalSFA
