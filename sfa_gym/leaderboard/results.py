@@ -51,8 +51,11 @@ from sfa_gym._files import write_json_atomic
 __all__ = [
     "FORMAT",
     "REFERENCE",
+    "ROUND_OFF",
     "SCHEMA_VERSION",
+    "ResultError",
     "YOURS",
+    "check_result",
     "gathered_entry",
     "write_gathered",
     "git_commit",
@@ -70,6 +73,16 @@ YOURS = "yours"
 """The source of the results a user ran (the results folder of ``sfa-gym leaderboard``)."""
 REFERENCE = "reference"
 """The source of the committed reference results (:func:`reference_folder`)."""
+
+
+ROUND_OFF = 1e-6
+"""The relative difference allowed between a stored summary and the one recomputed from the
+seeds' scores: gathered files keep ten digits of each; an edit of a shown digit is far beyond."""
+
+
+class ResultError(ValueError):
+    """A result file or gathered entry that cannot be shown; the message names the file and what
+    is wrong with it."""
 
 
 def summarize(values: Sequence[float], higher_is_better: bool) -> dict[str, Any]:
@@ -188,7 +201,7 @@ _GATHERED_PROVENANCE = ("git_commit", "backend", "created", "versions", "cpu_num
 """What a gathered entry keeps of a result's provenance."""
 
 
-def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
+def _from_gathered(entry: Any, where: str, source: str) -> dict[str, Any]:
     """An entry of a gathered file in the shape of a result file, as far as the table reads it.
 
     A gathered entry keeps each seed's score but only the mean of each part, so the parts go
@@ -196,15 +209,20 @@ def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
     """
     missing = [k for k in _GATHERED_FIELDS if not isinstance(entry, dict) or k not in entry]
     if missing:
-        raise ValueError(
-            f"{path}: an entry of 'results' lacks {missing}; expected an object with "
-            f"{list(_GATHERED_FIELDS)}"
+        raise ResultError(
+            f"{where} lacks {missing}; expected an object with {list(_GATHERED_FIELDS)}"
         )
+    for key, kind in (("track", str), ("method", str), ("quick", bool), ("per_world_seed", dict)):
+        if not isinstance(entry[key], kind):
+            raise ResultError(f"{where}: {key!r} is {entry[key]!r}; expected a {kind.__name__}")
+    seeds = entry["per_world_seed"]
+    if not all(isinstance(k, str) and k.lstrip("-").isdigit() for k in seeds):
+        raise ResultError(f"{where}: 'per_world_seed' has keys {list(seeds)}; expected seeds")
     fingerprints = entry.get("fingerprints") or {}
     return {
         "track": {
             "name": entry["track"],
-            "quick": bool(entry["quick"]),
+            "quick": entry["quick"],
             "track_version": entry["track_version"],
         },
         "method": {"label": entry["method"], "sha256": entry.get("method_sha256")},
@@ -215,13 +233,90 @@ def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
                 "scores": {"score": value}
                 | ({"fingerprint": fingerprints[seed]} if seed in fingerprints else {}),
             }
-            for seed, value in entry["per_world_seed"].items()
+            for seed, value in seeds.items()
         ],
         "parts": entry.get("parts"),
         "provenance": {k: entry.get(k) for k in _GATHERED_PROVENANCE},
-        "_file": str(path),
         "_source": source,
     }
+
+
+def _get(where: str, data: Any, dotted: str, kind: str) -> Any:
+    """``data[a][b]`` for ``dotted`` ``"a.b"``, checked to be of ``kind`` (``"text"``,
+    ``"bool"``, ``"int"``, ``"number"`` (finite), ``"object"``, ``"list"``).
+
+    Raises:
+        ResultError: the field is missing or of another type (named with ``where``).
+    """
+    value = data
+    for key in dotted.split("."):
+        if not isinstance(value, dict) or key not in value:
+            raise ResultError(f"{where} lacks {dotted!r}")
+        value = value[key]
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    ok = {
+        "text": isinstance(value, str),
+        "bool": isinstance(value, bool),
+        "int": number and isinstance(value, int),
+        "number": number and math.isfinite(value),
+        "object": isinstance(value, dict),
+        "list": isinstance(value, list),
+    }[kind]
+    if not ok:
+        raise ResultError(f"{where}: {dotted!r} is {value!r}; expected {kind}")
+    return value
+
+
+def _close(stored: Any, fresh: Any) -> bool:
+    """Whether a stored summary value is the recomputed one up to :data:`ROUND_OFF`."""
+    if fresh is None or stored is None:
+        return stored is None and fresh is None
+    if isinstance(fresh, list):
+        return (
+            isinstance(stored, list)
+            and len(stored) == len(fresh)
+            and all(_close(a, b) for a, b in zip(stored, fresh, strict=True))
+        )
+    number = isinstance(stored, int | float) and not isinstance(stored, bool)
+    return number and math.isclose(stored, fresh, rel_tol=ROUND_OFF, abs_tol=ROUND_OFF)
+
+
+def check_result(result: dict[str, Any], where: str) -> dict[str, Any]:
+    """``result`` (a result file's content or a gathered entry's, :func:`_from_gathered`)
+    checked field by field, its score's mean, interval, ``n`` and ``std`` recomputed from its
+    seeds' scores (:func:`summarize`).
+
+    Raises:
+        ResultError: a field is missing or of a wrong type, a world seed repeats, or the stored
+            mean, interval or ``n`` differ from the recomputed ones beyond :data:`ROUND_OFF`
+            (both named, with ``where``).
+    """
+    _get(where, result, "track.name", "text")
+    _get(where, result, "track.quick", "bool")
+    if _get(where, result, "track.track_version", "int") < 1:
+        raise ResultError(f"{where}: 'track.track_version' must be >= 1")
+    _get(where, result, "method.label", "text")
+    _get(where, result, "provenance", "object")
+    higher = _get(where, result, "score.higher_is_better", "bool")
+    tasks = _get(where, result, "tasks", "list")
+    if not tasks:
+        raise ResultError(f"{where}: 'tasks' is empty; expected a task per world seed")
+    values, seeds = [], []
+    for i, task in enumerate(tasks):
+        seeds.append(_get(f"{where}, task {i}", task, "world_seed", "int"))
+        values.append(_get(f"{where}, task {i}", task, "scores.score", "number"))
+    if len(set(seeds)) < len(seeds):
+        raise ResultError(f"{where}: world seeds {seeds} repeat")
+    stored, fresh = result["score"], summarize(values, higher)
+    differ = [
+        f"score.{k} is {stored.get(k)!r} but its seeds' scores give {fresh[k]!r}"
+        for k in ("mean", "n", "ci95")
+        if not _close(stored.get(k), fresh[k])
+    ]
+    if differ:
+        raise ResultError(f"{where}: {'; '.join(differ)}")
+    result["score"] = {**stored, **fresh}  # shown: the recomputed numbers, never the stored
+    return result
 
 
 def gathered_entry(result: dict[str, Any]) -> dict[str, Any]:
@@ -277,33 +372,78 @@ def write_gathered(
     return len(entries)
 
 
-def load_results(results: str | os.PathLike[str], source: str = YOURS) -> list[dict[str, Any]]:
-    """Every result under ``results`` (recursively): result files, checked for format and
-    version, and the entries of gathered files (see the module docstring); each marked with
-    ``source`` (``"_source"``). A folder that does not exist holds no results.
+def load_results(
+    results: str | os.PathLike[str], source: str = YOURS, skipped: list[str] | None = None
+) -> list[dict[str, Any]]:
+    """Every result under ``results`` (recursively): result files and the entries of gathered
+    files (see the module docstring), each checked (:func:`check_result`, and a result file's
+    place against its content) and marked with ``source`` (``"_source"``) and its file
+    (``"_file"``). Files of other sfa-gym formats (task files) are passed over. A folder that
+    does not exist holds no results.
+
+    Args:
+        skipped: where to note each file or gathered entry that cannot be shown (a message
+            naming it and what is wrong) and read on; None: raise at the first.
 
     Raises:
-        ValueError: a file that is not a leaderboard result or has another schema version, or a
-            gathered entry that lacks a field.
+        ResultError: (``skipped`` None) a file that is not valid JSON, neither a result nor a
+            gathered file, of another schema version, or whose content fails the checks.
     """
     out = []
     for path in sorted(Path(results).rglob("*.json")):
-        data = json.loads(path.read_text())
-        if not isinstance(data, dict):
-            continue
-        if data.get("format") != FORMAT:
-            if isinstance(data.get("results"), list):
-                out += [_from_gathered(entry, path, source) for entry in data["results"]]
-            continue
-        if data.get("schema_version") != SCHEMA_VERSION:
-            raise ValueError(
-                f"{path}: result schema_version {data.get('schema_version')!r}; this sfa_gym "
-                f"reads {SCHEMA_VERSION}"
-            )
-        data["_file"] = str(path)
-        data["_source"] = source
-        out.append(data)
+        try:
+            out += _read_file(path, source, skipped)
+        except ResultError as error:
+            if skipped is None:
+                raise
+            skipped.append(str(error))
     return out
+
+
+def _read_file(path: Path, source: str, skipped: list[str] | None) -> list[dict[str, Any]]:
+    """The checked results of one file (see :func:`load_results`)."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ResultError(f"{path} cannot be read as JSON: {error}") from None
+    kind = data.get("format") if isinstance(data, dict) else None
+    if isinstance(data, dict) and kind is None and isinstance(data.get("results"), list):
+        out = []
+        for i, entry in enumerate(data["results"]):
+            where = f"{path}, entry {i}"
+            try:
+                out.append(check_result(_from_gathered(entry, where, source), where))
+            except ResultError as error:
+                if skipped is None:
+                    raise
+                skipped.append(str(error))
+            else:
+                out[-1]["_file"] = str(path)
+        return out
+    if isinstance(kind, str) and kind.startswith("sfa-gym-") and kind != FORMAT:
+        return []  # another kind of sfa-gym file (task files): not a result
+    if kind != FORMAT:
+        raise ResultError(
+            f"{path} is neither a result file (format {FORMAT!r}) nor a gathered file (an "
+            "object with a 'results' list)"
+        )
+    if data.get("schema_version") != SCHEMA_VERSION:
+        raise ResultError(
+            f"{path}: result schema_version {data.get('schema_version')!r}; this sfa_gym "
+            f"reads {SCHEMA_VERSION}"
+        )
+    check_result(data, str(path))
+    track, quick, label = data["track"]["name"], data["track"]["quick"], data["method"]["label"]
+    place = result_path(path.parents[1], track, label, quick)
+    if place != path:
+        raise ResultError(
+            f"{path}: it holds track {track!r} at the {'quick' if quick else 'full'} size, "
+            f"method {label!r}, whose file is {place.relative_to(path.parents[1])}; a result's "
+            "folder and name must agree with its content"
+        )
+    data["_file"] = str(path)
+    data["_source"] = source
+    return [data]
 
 
 def mean_parts(result: dict[str, Any]) -> dict[str, float] | None:
