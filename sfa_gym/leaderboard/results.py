@@ -248,10 +248,12 @@ def _get(where: str, data: Any, dotted: str, kind: str) -> Any:
     Raises:
         ResultError: the field is missing or of another type (named with ``where``).
     """
-    value = data
-    for key in dotted.split("."):
-        if not isinstance(value, dict) or key not in value:
-            raise ResultError(f"{where} lacks {dotted!r}")
+    value, keys = data, dotted.split(".")
+    for i, key in enumerate(keys):
+        if not isinstance(value, dict):
+            raise ResultError(f"{where}: {'.'.join(keys[:i])!r} is {value!r}; expected object")
+        if key not in value:
+            raise ResultError(f"{where} lacks {'.'.join(keys[: i + 1])!r}")
         value = value[key]
     number = isinstance(value, int | float) and not isinstance(value, bool)
     ok = {
