@@ -66,6 +66,13 @@ def test_a_correct_result_is_shown_unchanged(tmp_path, capsys):
     assert _row(out, "good") == "| good | yours | 3.50 [0.32, 6.68] |"
 
 
+def test_a_result_that_records_no_commit_is_shown(tmp_path, capsys):
+    _write(tmp_path, {**_result("bare"), "provenance": {}})
+    status, out, err = _table(tmp_path, capsys)
+    assert status == 0 and "skipped" not in err
+    assert _row(out, "bare") == "| bare | yours | 3.50 [0.32, 6.68] |"
+
+
 def test_an_edited_mean_is_refused_with_both_numbers(tmp_path, capsys):
     _write(tmp_path, _result("good"))
     edited = _result("edited", {100: 14.0, 101: 14.02})
@@ -120,8 +127,31 @@ def test_a_file_whose_place_disagrees_with_its_content_is_refused(
         ),
         (lambda text, data: text.replace('"quick": true', '"quick": 1'), "'track.quick' is 1"),
         (lambda text, data: json.dumps([data]), "neither a result file"),
+        (
+            lambda text, data: text.replace('"score": 3.25', '"score": NaN'),
+            "task 0: 'scores.score' is nan; expected number",
+        ),
+        (
+            lambda text, data: text.replace('{"score": 3.75}', '{"score": 3.75, "parts": [1]}'),
+            "task 1: 'parts' is [1]; expected {part: number}",
+        ),
+        (
+            lambda text, data: json.dumps({**data, "provenance": {"versions": "numpy 2"}}),
+            "'provenance.versions' is 'numpy 2'",
+        ),
     ],
-    ids=["truncated", "no score", "no tasks", "version text", "score text", "quick int", "list"],
+    ids=[
+        "truncated",
+        "no score",
+        "no tasks",
+        "version text",
+        "score text",
+        "quick int",
+        "list",
+        "score nan",
+        "parts list",
+        "versions text",
+    ],
 )
 def test_a_damaged_file_is_named_and_the_rest_is_shown(tmp_path, capsys, damage, expected):
     _write(tmp_path, _result("good"))

@@ -255,18 +255,23 @@ def _get(where: str, data: Any, dotted: str, kind: str) -> Any:
         if key not in value:
             raise ResultError(f"{where} lacks {'.'.join(keys[: i + 1])!r}")
         value = value[key]
-    number = isinstance(value, int | float) and not isinstance(value, bool)
     ok = {
         "text": isinstance(value, str),
         "bool": isinstance(value, bool),
-        "int": number and isinstance(value, int),
-        "number": number and math.isfinite(value),
+        "int": isinstance(value, int) and not isinstance(value, bool),
+        "number": _finite(value),
         "object": isinstance(value, dict),
         "list": isinstance(value, list),
     }[kind]
     if not ok:
         raise ResultError(f"{where}: {dotted!r} is {value!r}; expected {kind}")
     return value
+
+
+def _finite(value: Any) -> bool:
+    """Whether ``value`` is a finite JSON number (not a bool)."""
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    return number and math.isfinite(value)
 
 
 def _close(stored: Any, fresh: Any) -> bool:
@@ -309,6 +314,16 @@ def check_result(result: dict[str, Any], where: str) -> dict[str, Any]:
         values.append(_get(f"{where}, task {i}", task, "scores.score", "number"))
     if len(set(seeds)) < len(seeds):
         raise ResultError(f"{where}: world seeds {seeds} repeat")
+    # what else the table reads: each part's score, the recorded versions
+    parts = [(f"{where}, task {i}", t["scores"].get("parts")) for i, t in enumerate(tasks)]
+    for place, found in [*parts, (where, result.get("parts"))]:
+        if found is not None and not (
+            isinstance(found, dict) and all(v is None or _finite(v) for v in found.values())
+        ):
+            raise ResultError(f"{place}: 'parts' is {found!r}; expected {{part: number}}")
+    versions = result["provenance"].get("versions")
+    if versions is not None and not isinstance(versions, dict):
+        raise ResultError(f"{where}: 'provenance.versions' is {versions!r}; expected an object")
     stored, fresh = result["score"], summarize(values, higher)
     differ = [
         f"score.{k} is {stored.get(k)!r} but its seeds' scores give {fresh[k]!r}"

@@ -233,7 +233,7 @@ def detail_tables(board: Board) -> list[str]:
         for source in dict.fromkeys(row[1] for row in board.rows if row in board.cells[t]):
             any_result = next(r for row, r in board.cells[t].items() if row[1] == source)
             seeds = [task["world_seed"] for task in any_result["tasks"]]
-            commit = any_result["provenance"]["git_commit"] or "-"
+            commit = any_result["provenance"].get("git_commit") or "-"
             version = any_result["track"]["track_version"]
             lines.append(f"| {t} | {source} | {version} | {seeds} | {commit} |")
     return lines
