@@ -223,3 +223,15 @@ def test_the_committed_reference_loads_without_a_warning(capsys):
     assert main(["leaderboard", "table", "--markdown", "--results", str(reference_folder())]) == 0
     err = capsys.readouterr().err
     assert "skipped" not in err and "apart" not in err
+
+
+def test_publish_refuses_a_folder_with_an_edited_result(tmp_path, capsys):
+    _write(tmp_path / "results", _result("good"))
+    edited = _result("edited")
+    edited["score"]["ci95"] = [3.0, 4.0]
+    path = _write(tmp_path / "results", edited)
+    out = tmp_path / "quick.json"
+    args = ["leaderboard", "publish", "--results", str(tmp_path / "results"), "--out", str(out)]
+    assert main(args) == 2 and not out.exists()
+    err = capsys.readouterr().err
+    assert str(path) in err and "score.ci95 is [3.0, 4.0]" in err
