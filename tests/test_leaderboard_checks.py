@@ -19,6 +19,7 @@ from sfa_gym.leaderboard.results import (
     gathered_entry,
     load_results,
     make_result,
+    summarize,
 )
 from sfa_gym.leaderboard.table import load_board, markdown_table
 from sfa_gym.leaderboard.tracks import load_track
@@ -63,7 +64,7 @@ def _nav_result(label: str, prints: dict[int, str], versions: dict | None) -> di
         "schema_version": SCHEMA_VERSION,
         "track": {"name": "nav_open", "quick": True, "track_version": 2},
         "method": {"label": label, "sha256": None},
-        "score": {"mean": 0.5, "ci95": None, "n": len(prints), "higher_is_better": True},
+        "score": summarize([0.5] * len(prints), higher_is_better=True),
         "tasks": [
             {"world_seed": s, "scores": {"score": 0.5, "fingerprint": f}, "seconds": 1.0}
             for s, f in prints.items()
@@ -104,9 +105,12 @@ def test_results_off_the_lock_or_off_the_reference_episodes_are_marked(tmp_path)
     assert marks.fingerprints == {(column, ("pca", "yours")): [101]}
     assert marks.unrecorded == [(column, ("sfa", "yours"))]
     table = markdown_table(board, marks)
-    assert f"| pca | yours | 0.50 {VERSIONS_MARK}{FINGERPRINT_MARK} |" in table
-    assert "| band_means | yours | 0.50 |" in table and "| sfa | yours | 0.50 |" in table
-    assert "| pca | reference | 0.50 |" in table
+    assert f"| pca | yours | 0.50 [0.50, 0.50] {VERSIONS_MARK}{FINGERPRINT_MARK} |" in table
+    assert (
+        "| band_means | yours | 0.50 [0.50, 0.50] |" in table
+        and "| sfa | yours | 0.50 [0.50, 0.50] |" in table
+    )
+    assert "| pca | reference | 0.50 [0.50, 0.50] |" in table
     assert any(line.startswith(VERSIONS_MARK) for line in table.splitlines())
     assert any(line.startswith(FINGERPRINT_MARK) for line in table.splitlines())
     warnings = "\n".join(marks.warnings())

@@ -15,6 +15,7 @@ from sfa_gym.leaderboard.results import (
     SCHEMA_VERSION,
     load_results,
     reference_folder,
+    summarize,
 )
 
 
@@ -26,12 +27,7 @@ def _result(track: str, label: str, seeds: dict[int, float]) -> dict:
         "schema_version": SCHEMA_VERSION,
         "track": {"name": track, "quick": True, "track_version": 1},
         "method": {"label": label},
-        "score": {
-            "mean": sum(values) / len(values),
-            "ci95": None,
-            "n": len(values),
-            "higher_is_better": False,
-        },
+        "score": summarize(values, higher_is_better=False),
         "tasks": [{"world_seed": s, "scores": {"score": v}} for s, v in seeds.items()],
         "provenance": {"git_commit": None},
     }
@@ -61,7 +57,7 @@ def test_your_results_are_shown_beside_the_reference(tmp_path, capsys):
     header = next(line for line in lines if line.startswith("| method | source |"))
     column = header.split(" | ").index("few_labels (quick)")
     yours = next(line for line in lines if line.startswith("| my_method | yours |"))
-    assert yours.split(" | ")[column] == "3.50"
+    assert yours.split(" | ")[column] == "3.50 [0.32, 6.68]"
     # the reference rows of the same track, from the committed file
     reference = [r for r in load_results(reference_folder()) if r["track"]["name"] == "few_labels"]
     for r in reference:
@@ -72,7 +68,7 @@ def test_your_results_are_shown_beside_the_reference(tmp_path, capsys):
     capsys.readouterr()
     assert main(["leaderboard", "table", "--results", str(mine.parents[1]), "--no-reference"]) == 0
     alone = capsys.readouterr().out
-    assert "| my_method | yours | 3.50 |" in alone and "| reference |" not in alone
+    assert "| my_method | yours | 3.50 [0.32, 6.68] |" in alone and "| reference |" not in alone
 
 
 def test_markdown_prints_the_table_and_writes_nothing(tmp_path, capsys):

@@ -161,10 +161,16 @@ class LeaderboardTable:
     each row labelled by its source: LEADERBOARD.md and leaderboard.png, or --markdown. A cell
     is marked † when its result was computed with package versions other than the lock's
     (constraints.txt), ‡ when its navigation episodes differ from the reference result's (episode
-    fingerprints); each marked result is named on stderr."""
+    fingerprints); each marked result is named on stderr. Every result is checked before it is
+    shown: a file that cannot be read, lacks a field, has a wrong type, lies in another track's
+    folder or whose stored mean does not follow from its seeds' scores is skipped and named on
+    stderr; a result of another track version (or other world seeds) than tracks/ holds gets a
+    column of its own, also named on stderr."""
 
     results: Path = Path("results/leaderboard")
     """your results folder (searched recursively)"""
+    tracks: Path | None = None
+    """folder of the current track files (default: tracks/ of the checkout)"""
     out: Path | None = None
     """where to write the table and the chart (default: the results folder)"""
     reference: bool = True
@@ -177,10 +183,21 @@ class LeaderboardTable:
 
         from sfa_gym.leaderboard.checks import check_board
         from sfa_gym.leaderboard.results import REFERENCE, YOURS, reference_folder
-        from sfa_gym.leaderboard.table import load_board, markdown_table, write_table
+        from sfa_gym.leaderboard.table import load_board, markdown_table, write_board
 
         reference = reference_folder() if self.reference else None
-        board = load_board(self.results, reference)
+        skipped: list[str] = []
+        try:
+            board = load_board(self.results, reference, skipped, self.tracks)
+        finally:  # named even when nothing at all is left to show
+            for line in skipped:
+                print(f"warning: skipped {line}", file=sys.stderr)
+        for column, why in sorted(board.apart.items()):
+            files = sorted(r["_file"] for r in board.cells[column].values())
+            print(
+                f"warning: {', '.join(files)}: {why}; shown apart in column {column!r}",
+                file=sys.stderr,
+            )
         if not any(source == YOURS for _, source in board.rows):
             print(f"no results of yours under {self.results}", file=sys.stderr)
         marks = check_board(board, reference=REFERENCE)
@@ -189,7 +206,8 @@ class LeaderboardTable:
         if self.markdown:
             print(markdown_table(board, marks), end="")
         else:
-            print(write_table(self.results, self.out, reference, marks), end="")
+            out = self.out if self.out is not None else self.results
+            print(write_board(board, out, marks), end="")
         return 0
 
 

@@ -10,7 +10,8 @@
 - :mod:`~sfa_gym.leaderboard.backends`: running the tasks locally or on Ray.
 - :mod:`~sfa_gym.leaderboard.task_files`: each task's file, written as it finishes; a rerun of
   a sweep (:mod:`~sfa_gym.leaderboard.sweep`) runs only the tasks not finished yet.
-- :mod:`~sfa_gym.leaderboard.results`: result files with provenance and intervals;
+- :mod:`~sfa_gym.leaderboard.results`: result files with provenance and intervals, each
+  checked as it is read (:mod:`~sfa_gym.leaderboard.verify`: its fields, its mean recomputed);
   :mod:`~sfa_gym.leaderboard.table`: the table built from them.
 """
 

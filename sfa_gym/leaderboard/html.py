@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from sfa_gym.leaderboard.results import REFERENCE, load_results, reference_folder
-from sfa_gym.leaderboard.table import Board, arrange, detail_tables, draw_chart
+from sfa_gym.leaderboard.table import Board, arrange, current_tracks, detail_tables, draw_chart
 
 __all__ = ["board_html", "chart_svg", "results_page", "sorting"]
 
@@ -178,11 +178,12 @@ def results_page(folder: str | os.PathLike[str] | None = None) -> str:
         "of the coordinate range, mean of x and y (lower is better); navigation: success "
         "rate (higher is better). Press a column's header to sort by it.",
     ]
+    tracks = current_tracks()  # results of another track version or seed set go in columns apart
     for quick, title in ((False, "The board"), (True, "The quick board")):
         size = [r for r in results if r["track"]["quick"] == quick]
         if not size:
             continue
-        board = arrange(size)
+        board = arrange(size, tracks)
         what = "fewer world seeds, smaller grids" if quick else "the tracks' full size"
         lines += ["", f"## {title}", "", f"{what.capitalize()}.", "", board_html(board), ""]
         lines += [f"### {title}: the parts of the scores and the tracks", *detail_tables(board)]

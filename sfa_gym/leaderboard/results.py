@@ -29,17 +29,22 @@ be *gathered* files: ``{"description", "results": [...]}`` with one summary per 
 ``git_commit``, ``versions``, ``fingerprints`` (``{world seed: fingerprint}``), ...;
 :func:`gathered_entry` writes one). :func:`load_results` reads both kinds into the shape of a
 result file, and the table shows each row's source: your results beside the reference ones.
+
+Nothing read is trusted: each result (and each gathered entry) is checked field by field and its
+mean, interval and ``n`` recomputed from the seeds' scores
+(:func:`~sfa_gym.leaderboard.verify.check_result`), and a result file's place
+(``<track>/<label>[.quick].json``) must agree with its track, size and method. A file that fails
+is a :class:`~sfa_gym.leaderboard.verify.ResultError` naming it and what is wrong;
+:func:`load_results` given a ``skipped`` list notes it there and reads on.
 """
 
 from __future__ import annotations
 
 import datetime
 import json
-import math
 import os
 import platform
 import subprocess
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -47,12 +52,16 @@ import numpy as np
 
 import sfa_gym
 from sfa_gym.files import write_json_atomic
+from sfa_gym.leaderboard.verify import ROUND_OFF, ResultError, check_result, summarize
 
 __all__ = [
     "FORMAT",
     "REFERENCE",
+    "ROUND_OFF",
     "SCHEMA_VERSION",
+    "ResultError",
     "YOURS",
+    "check_result",
     "gathered_entry",
     "write_gathered",
     "git_commit",
@@ -70,27 +79,6 @@ YOURS = "yours"
 """The source of the results a user ran (the results folder of ``sfa-gym leaderboard``)."""
 REFERENCE = "reference"
 """The source of the committed reference results (:func:`reference_folder`)."""
-
-
-def summarize(values: Sequence[float], higher_is_better: bool) -> dict[str, Any]:
-    """Mean and Student-t 95 % interval of per-world-seed ``values``."""
-    from scipy import stats
-
-    x = np.asarray(values, dtype=np.float64)
-    mean = float(x.mean())
-    out: dict[str, Any] = {
-        "mean": mean,
-        "ci95": None,
-        "interval": "t",
-        "n": int(len(x)),
-        "std": None,
-        "higher_is_better": higher_is_better,
-    }
-    if len(x) > 1:
-        std = float(x.std(ddof=1))
-        half = float(stats.t.ppf(0.975, len(x) - 1)) * std / math.sqrt(len(x))
-        out.update(std=std, ci95=[mean - half, mean + half])
-    return out
 
 
 def git_commit(path: str | os.PathLike[str] | None = None) -> str | None:
@@ -188,7 +176,7 @@ _GATHERED_PROVENANCE = ("git_commit", "backend", "created", "versions", "cpu_num
 """What a gathered entry keeps of a result's provenance."""
 
 
-def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
+def _from_gathered(entry: Any, where: str, source: str) -> dict[str, Any]:
     """An entry of a gathered file in the shape of a result file, as far as the table reads it.
 
     A gathered entry keeps each seed's score but only the mean of each part, so the parts go
@@ -196,15 +184,20 @@ def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
     """
     missing = [k for k in _GATHERED_FIELDS if not isinstance(entry, dict) or k not in entry]
     if missing:
-        raise ValueError(
-            f"{path}: an entry of 'results' lacks {missing}; expected an object with "
-            f"{list(_GATHERED_FIELDS)}"
+        raise ResultError(
+            f"{where} lacks {missing}; expected an object with {list(_GATHERED_FIELDS)}"
         )
+    for key, kind in (("track", str), ("method", str), ("quick", bool), ("per_world_seed", dict)):
+        if not isinstance(entry[key], kind):
+            raise ResultError(f"{where}: {key!r} is {entry[key]!r}; expected a {kind.__name__}")
+    seeds = entry["per_world_seed"]
+    if not all(isinstance(k, str) and k.lstrip("-").isdigit() for k in seeds):
+        raise ResultError(f"{where}: 'per_world_seed' has keys {list(seeds)}; expected seeds")
     fingerprints = entry.get("fingerprints") or {}
     return {
         "track": {
             "name": entry["track"],
-            "quick": bool(entry["quick"]),
+            "quick": entry["quick"],
             "track_version": entry["track_version"],
         },
         "method": {"label": entry["method"], "sha256": entry.get("method_sha256")},
@@ -215,11 +208,10 @@ def _from_gathered(entry: Any, path: Path, source: str) -> dict[str, Any]:
                 "scores": {"score": value}
                 | ({"fingerprint": fingerprints[seed]} if seed in fingerprints else {}),
             }
-            for seed, value in entry["per_world_seed"].items()
+            for seed, value in seeds.items()
         ],
         "parts": entry.get("parts"),
         "provenance": {k: entry.get(k) for k in _GATHERED_PROVENANCE},
-        "_file": str(path),
         "_source": source,
     }
 
@@ -277,33 +269,78 @@ def write_gathered(
     return len(entries)
 
 
-def load_results(results: str | os.PathLike[str], source: str = YOURS) -> list[dict[str, Any]]:
-    """Every result under ``results`` (recursively): result files, checked for format and
-    version, and the entries of gathered files (see the module docstring); each marked with
-    ``source`` (``"_source"``). A folder that does not exist holds no results.
+def load_results(
+    results: str | os.PathLike[str], source: str = YOURS, skipped: list[str] | None = None
+) -> list[dict[str, Any]]:
+    """Every result under ``results`` (recursively): result files and the entries of gathered
+    files (see the module docstring), each checked (:func:`check_result`, and a result file's
+    place against its content) and marked with ``source`` (``"_source"``) and its file
+    (``"_file"``). Files of other sfa-gym formats (task files) are passed over. A folder that
+    does not exist holds no results.
+
+    Args:
+        skipped: where to note each file or gathered entry that cannot be shown (a message
+            naming it and what is wrong) and read on; None: raise at the first.
 
     Raises:
-        ValueError: a file that is not a leaderboard result or has another schema version, or a
-            gathered entry that lacks a field.
+        ResultError: (``skipped`` None) a file that is not valid JSON, neither a result nor a
+            gathered file, of another schema version, or whose content fails the checks.
     """
     out = []
     for path in sorted(Path(results).rglob("*.json")):
-        data = json.loads(path.read_text())
-        if not isinstance(data, dict):
-            continue
-        if data.get("format") != FORMAT:
-            if isinstance(data.get("results"), list):
-                out += [_from_gathered(entry, path, source) for entry in data["results"]]
-            continue
-        if data.get("schema_version") != SCHEMA_VERSION:
-            raise ValueError(
-                f"{path}: result schema_version {data.get('schema_version')!r}; this sfa_gym "
-                f"reads {SCHEMA_VERSION}"
-            )
-        data["_file"] = str(path)
-        data["_source"] = source
-        out.append(data)
+        try:
+            out += _read_file(path, source, skipped)
+        except ResultError as error:
+            if skipped is None:
+                raise
+            skipped.append(str(error))
     return out
+
+
+def _read_file(path: Path, source: str, skipped: list[str] | None) -> list[dict[str, Any]]:
+    """The checked results of one file (see :func:`load_results`)."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ResultError(f"{path} cannot be read as JSON: {error}") from None
+    kind = data.get("format") if isinstance(data, dict) else None
+    if isinstance(data, dict) and kind is None and isinstance(data.get("results"), list):
+        out = []
+        for i, entry in enumerate(data["results"]):
+            where = f"{path}, entry {i}"
+            try:
+                out.append(check_result(_from_gathered(entry, where, source), where))
+            except ResultError as error:
+                if skipped is None:
+                    raise
+                skipped.append(str(error))
+            else:
+                out[-1]["_file"] = str(path)
+        return out
+    if isinstance(kind, str) and kind.startswith("sfa-gym-") and kind != FORMAT:
+        return []  # another kind of sfa-gym file (task files): not a result
+    if kind != FORMAT:
+        raise ResultError(
+            f"{path} is neither a result file (format {FORMAT!r}) nor a gathered file (an "
+            "object with a 'results' list)"
+        )
+    if data.get("schema_version") != SCHEMA_VERSION:
+        raise ResultError(
+            f"{path}: result schema_version {data.get('schema_version')!r}; this sfa_gym "
+            f"reads {SCHEMA_VERSION}"
+        )
+    check_result(data, str(path))
+    track, quick, label = data["track"]["name"], data["track"]["quick"], data["method"]["label"]
+    place = result_path(path.parents[1], track, label, quick)
+    if place != path:
+        raise ResultError(
+            f"{path}: it holds track {track!r} at the {'quick' if quick else 'full'} size, "
+            f"method {label!r}, whose file is {place.relative_to(path.parents[1])}; a result's "
+            "folder and name must agree with its content"
+        )
+    data["_file"] = str(path)
+    data["_source"] = source
+    return [data]
 
 
 def mean_parts(result: dict[str, Any]) -> dict[str, float] | None:

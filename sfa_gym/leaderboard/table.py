@@ -1,11 +1,18 @@
 """The leaderboard table: results (:mod:`sfa_gym.leaderboard.results`) arranged as a column per
 track and a row per method and source (yours beside the committed reference), written as
-markdown (LEADERBOARD.md), detail tables and a chart (leaderboard.png)."""
+markdown (LEADERBOARD.md), detail tables and a chart (leaderboard.png).
+
+A column holds one experiment: one track at one size, at the version and world seeds of the
+track file in ``tracks/``. A result of another track version (or, at the same version, of other
+world seeds) is put in a column of its own, ``"<track> v<N>"`` (``"<track> seeds [...]"``), never
+averaged or ranked with the current version's; :attr:`Board.apart` says why.
+"""
 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -16,35 +23,80 @@ from sfa_gym.leaderboard.results import REFERENCE, YOURS, load_results, mean_par
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+    from sfa_gym.leaderboard.tracks import Track
+
 __all__ = [
     "Board",
     "CellMarks",
     "Row",
     "arrange",
+    "column_of",
+    "current_tracks",
     "detail_tables",
     "draw_chart",
     "load_board",
     "markdown_table",
+    "write_board",
     "write_table",
 ]
 
 
 def load_board(
-    results_dir: str | os.PathLike[str], reference: str | os.PathLike[str] | None = None
+    results_dir: str | os.PathLike[str],
+    reference: str | os.PathLike[str] | None = None,
+    skipped: list[str] | None = None,
+    tracks: str | os.PathLike[str] | None = None,
 ) -> Board:
     """Your results under ``results_dir`` and, beside them, the reference results under
-    ``reference`` (None, or the same folder: none), arranged as the table shows them.
+    ``reference`` (None, or the same folder: none), arranged as the table shows them, each
+    column at the version of the track files of ``tracks`` (default: ``tracks/``,
+    :func:`current_tracks`).
+
+    Args:
+        skipped: where to note each result that cannot be shown and go on (see
+            :func:`~sfa_gym.leaderboard.results.load_results`); None: raise at the first.
 
     Raises:
         ValueError: no results in either folder.
+        ResultError: (``skipped`` None) a result that cannot be shown.
     """
-    results = load_results(results_dir)
+    results = load_results(results_dir, skipped=skipped)
     if reference is not None and Path(reference).resolve() != Path(results_dir).resolve():
-        results += load_results(reference, REFERENCE)
+        results += load_results(reference, REFERENCE, skipped)
     if not results:
         where = f"{results_dir} or {reference}" if reference is not None else str(results_dir)
         raise ValueError(f"no leaderboard results under {where}")
-    return arrange(results)
+    return arrange(results, current_tracks(tracks))
+
+
+def current_tracks(folder: str | os.PathLike[str] | None = None) -> dict[str, Track]:
+    """The track files of ``folder`` (default: ``tracks/``) by name; none where there is no such
+    folder (an installation without the track files)."""
+    from sfa_gym.leaderboard.tracks import list_tracks
+
+    try:
+        return {t.name: t for t in list_tracks(folder)}
+    except FileNotFoundError:
+        return {}
+
+
+def column_of(result: dict[str, Any], tracks: Mapping[str, Track]) -> tuple[str, str | None]:
+    """The column of ``result`` and, when it is apart from the current track's column, why: its
+    track, then ``" v<N>"`` when its track version is not that of ``tracks[name]``, else
+    ``" seeds [...]"`` when its world seeds are not the track's at its size, then ``" (quick)"``
+    at the quick size. A track not in ``tracks`` is taken as it is."""
+    info = result["track"]
+    name, quick, version = info["name"], info["quick"], info["track_version"]
+    seeds = sorted(task["world_seed"] for task in result["tasks"])
+    track = tracks.get(name)
+    why = None
+    if track is not None and version != track.track_version:
+        name += f" v{version}"
+        why = f"track version {version}; the track file is version {track.track_version}"
+    elif track is not None and seeds != sorted(track.sized(quick)[0]):
+        name += f" seeds {seeds}"
+        why = f"world seeds {seeds}; the track file's are {sorted(track.sized(quick)[0])}"
+    return name + (" (quick)" if quick else ""), why
 
 
 Row = tuple[str, str]
@@ -60,6 +112,9 @@ class Board:
     cells: dict[str, dict[Row, dict[str, Any]]]
     tracks: list[str]
     rows: list[Row]
+    apart: dict[str, str] = field(default_factory=dict)
+    """``{column: why}`` for the columns of results that differ from the track file's version
+    or world seeds (:func:`column_of`)."""
 
     @property
     def several_sources(self) -> bool:
@@ -75,8 +130,10 @@ class Board:
         return next(iter(self.cells[track].values()))["score"]["higher_is_better"]
 
 
-def arrange(results: list[dict[str, Any]]) -> Board:
-    """The :class:`Board` of ``results``; your rows before the reference rows of a method.
+def arrange(results: list[dict[str, Any]], tracks: Mapping[str, Track] | None = None) -> Board:
+    """The :class:`Board` of ``results``; your rows before the reference rows of a method;
+    results of another version or seeds than ``tracks`` (by name; None: none) in columns apart
+    (:func:`column_of`).
 
     Raises:
         ValueError: no results.
@@ -84,15 +141,18 @@ def arrange(results: list[dict[str, Any]]) -> Board:
     if not results:
         raise ValueError("no leaderboard results to show")
     cells: dict[str, dict[Row, dict[str, Any]]] = {}
+    apart: dict[str, str] = {}
     for r in results:
-        key = r["track"]["name"] + (" (quick)" if r["track"]["quick"] else "")
+        key, why = column_of(r, tracks or {})
+        if why is not None:
+            apart[key] = why
         cells.setdefault(key, {})[(r["method"]["label"], r.get("_source", YOURS))] = r
     order = {YOURS: 0, REFERENCE: 1}
     rows = sorted(
         {row for col in cells.values() for row in col},
         key=lambda row: (row[0], order.get(row[1], 2), row[1]),
     )
-    return Board(cells, sorted(cells), rows)
+    return Board(cells, sorted(cells), rows, apart)
 
 
 def _cell(score: dict[str, Any]) -> str:
@@ -158,6 +218,9 @@ def markdown_table(board: Board, marks: CellMarks | None = None) -> str:
         ]
         lines.append(f"| {row[0]} | {row[1]} | " + " | ".join(cells) + " |")
     footnotes = marks.footnotes() if marks else []
+    if board.apart:
+        footnotes += ["", "Columns apart (not comparable with the track's current column):"]
+        footnotes += [f"- {column}: {why}" for column, why in sorted(board.apart.items())]
     return "\n".join(lines + footnotes + detail_tables(board)) + "\n"
 
 
@@ -170,7 +233,7 @@ def detail_tables(board: Board) -> list[str]:
         for source in dict.fromkeys(row[1] for row in board.rows if row in board.cells[t]):
             any_result = next(r for row, r in board.cells[t].items() if row[1] == source)
             seeds = [task["world_seed"] for task in any_result["tasks"]]
-            commit = any_result["provenance"]["git_commit"] or "-"
+            commit = any_result["provenance"].get("git_commit") or "-"
             version = any_result["track"]["track_version"]
             lines.append(f"| {t} | {source} | {version} | {seeds} | {commit} |")
     return lines
@@ -235,15 +298,21 @@ def write_table(
     :func:`markdown_table`); returns the markdown text.
 
     Raises:
-        ValueError: no results in either folder.
+        ValueError: no results in either folder, or a result that cannot be shown.
     """
+    board = load_board(results_dir, reference)
+    return write_board(board, out if out is not None else results_dir, marks)
+
+
+def write_board(board: Board, out: str | os.PathLike[str], marks: CellMarks | None = None) -> str:
+    """Write ``LEADERBOARD.md`` and ``leaderboard.png`` of ``board`` into ``out`` (see
+    :func:`write_table`); returns the markdown text."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    board = load_board(results_dir, reference)
-    out_dir = Path(out) if out is not None else Path(results_dir)
+    out_dir = Path(out)
     out_dir.mkdir(parents=True, exist_ok=True)
     text = markdown_table(board, marks)
     (out_dir / "LEADERBOARD.md").write_text(text)

@@ -1,0 +1,143 @@
+"""The checks of a leaderboard result before the table shows it: every field the table reads,
+of the right type, and the score's summary (:func:`summarize`: the mean, the Student-t 95 %
+interval, ``n``) recomputed from the seeds' scores. A stored summary that differs from the
+recomputed one beyond round-off (:data:`ROUND_OFF`) has been edited or damaged, and since it is
+not known which part changed, the result is refused rather than shown with a corrected number.
+Reading files, and a file's place against its content, are
+:mod:`sfa_gym.leaderboard.results`'s.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = ["ROUND_OFF", "ResultError", "check_result", "summarize"]
+
+ROUND_OFF = 1e-6
+"""The relative difference allowed between a stored summary and the one recomputed from the
+seeds' scores: gathered files keep ten digits of each; an edit of a shown digit is far beyond."""
+
+
+class ResultError(ValueError):
+    """A result file or gathered entry that cannot be shown; the message names the file and what
+    is wrong with it."""
+
+
+def summarize(values: Sequence[float], higher_is_better: bool) -> dict[str, Any]:
+    """Mean and Student-t 95 % interval of per-world-seed ``values``."""
+    from scipy import stats
+
+    x = np.asarray(values, dtype=np.float64)
+    mean = float(x.mean())
+    out: dict[str, Any] = {
+        "mean": mean,
+        "ci95": None,
+        "interval": "t",
+        "n": int(len(x)),
+        "std": None,
+        "higher_is_better": higher_is_better,
+    }
+    if len(x) > 1:
+        std = float(x.std(ddof=1))
+        half = float(stats.t.ppf(0.975, len(x) - 1)) * std / math.sqrt(len(x))
+        out.update(std=std, ci95=[mean - half, mean + half])
+    return out
+
+
+def _get(where: str, data: Any, dotted: str, kind: str) -> Any:
+    """``data[a][b]`` for ``dotted`` ``"a.b"``, checked to be of ``kind`` (``"text"``,
+    ``"bool"``, ``"int"``, ``"number"`` (finite), ``"object"``, ``"list"``).
+
+    Raises:
+        ResultError: the field is missing or of another type (named with ``where``).
+    """
+    value, keys = data, dotted.split(".")
+    for i, key in enumerate(keys):
+        if not isinstance(value, dict):
+            raise ResultError(f"{where}: {'.'.join(keys[:i])!r} is {value!r}; expected object")
+        if key not in value:
+            raise ResultError(f"{where} lacks {'.'.join(keys[: i + 1])!r}")
+        value = value[key]
+    ok = {
+        "text": isinstance(value, str),
+        "bool": isinstance(value, bool),
+        "int": isinstance(value, int) and not isinstance(value, bool),
+        "number": _finite(value),
+        "object": isinstance(value, dict),
+        "list": isinstance(value, list),
+    }[kind]
+    if not ok:
+        raise ResultError(f"{where}: {dotted!r} is {value!r}; expected {kind}")
+    return value
+
+
+def _finite(value: Any) -> bool:
+    """Whether ``value`` is a finite JSON number (not a bool)."""
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    return number and math.isfinite(value)
+
+
+def _close(stored: Any, fresh: Any) -> bool:
+    """Whether a stored summary value is the recomputed one up to :data:`ROUND_OFF`."""
+    if fresh is None or stored is None:
+        return stored is None and fresh is None
+    if isinstance(fresh, list):
+        return (
+            isinstance(stored, list)
+            and len(stored) == len(fresh)
+            and all(_close(a, b) for a, b in zip(stored, fresh, strict=True))
+        )
+    number = isinstance(stored, int | float) and not isinstance(stored, bool)
+    return number and math.isclose(stored, fresh, rel_tol=ROUND_OFF, abs_tol=ROUND_OFF)
+
+
+def check_result(result: dict[str, Any], where: str) -> dict[str, Any]:
+    """``result`` (a result file's content or a gathered entry's, :func:`_from_gathered`)
+    checked field by field, its score's mean, interval, ``n`` and ``std`` recomputed from its
+    seeds' scores (:func:`summarize`).
+
+    Raises:
+        ResultError: a field is missing or of a wrong type, a world seed repeats, or the stored
+            mean, interval or ``n`` differ from the recomputed ones beyond :data:`ROUND_OFF`
+            (both named, with ``where``).
+    """
+    _get(where, result, "track.name", "text")
+    _get(where, result, "track.quick", "bool")
+    if _get(where, result, "track.track_version", "int") < 1:
+        raise ResultError(f"{where}: 'track.track_version' must be >= 1")
+    _get(where, result, "method.label", "text")
+    _get(where, result, "provenance", "object")
+    higher = _get(where, result, "score.higher_is_better", "bool")
+    tasks = _get(where, result, "tasks", "list")
+    if not tasks:
+        raise ResultError(f"{where}: 'tasks' is empty; expected a task per world seed")
+    values, seeds = [], []
+    for i, task in enumerate(tasks):
+        seeds.append(_get(f"{where}, task {i}", task, "world_seed", "int"))
+        values.append(_get(f"{where}, task {i}", task, "scores.score", "number"))
+    if len(set(seeds)) < len(seeds):
+        raise ResultError(f"{where}: world seeds {seeds} repeat")
+    # what else the table reads: each part's score, the recorded versions
+    parts = [(f"{where}, task {i}", t["scores"].get("parts")) for i, t in enumerate(tasks)]
+    for place, found in [*parts, (where, result.get("parts"))]:
+        if found is not None and not (
+            isinstance(found, dict) and all(v is None or _finite(v) for v in found.values())
+        ):
+            raise ResultError(f"{place}: 'parts' is {found!r}; expected {{part: number}}")
+    versions = result["provenance"].get("versions")
+    if versions is not None and not isinstance(versions, dict):
+        raise ResultError(f"{where}: 'provenance.versions' is {versions!r}; expected an object")
+    stored, fresh = result["score"], summarize(values, higher)
+    differ = [
+        f"score.{k} is {stored.get(k)!r} but its seeds' scores give {fresh[k]!r}"
+        for k in ("mean", "n", "ci95")
+        if not _close(stored.get(k), fresh[k])
+    ]
+    if differ:
+        raise ResultError(f"{where}: {'; '.join(differ)}")
+    result["score"] = {**stored, **fresh}  # shown: the recomputed numbers, never the stored
+    return result

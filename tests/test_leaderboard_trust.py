@@ -1,0 +1,237 @@
+"""``sfa-gym leaderboard table`` trusts nothing it reads: a result whose stored mean does not
+follow from its seeds' scores, that lies in another track's folder, is truncated, lacks a field
+or has a wrong type is skipped and named, the rest still shown; a result of another track
+version gets a column of its own."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from sfa_gym.cli.main import main
+from sfa_gym.leaderboard.results import (
+    FORMAT,
+    REFERENCE,
+    SCHEMA_VERSION,
+    ResultError,
+    load_results,
+    reference_folder,
+    summarize,
+)
+from sfa_gym.leaderboard.table import load_board
+
+GOOD = {100: 3.25, 101: 3.75}
+"""The quick world seeds of few_labels (tracks/few_labels.json, version 1) and their scores."""
+
+
+def _result(label: str, seeds: dict[int, float] = GOOD, **track: object) -> dict:
+    """A correct result file of few_labels at the quick size; ``track`` overrides its fields."""
+    return {
+        "format": FORMAT,
+        "schema_version": SCHEMA_VERSION,
+        "track": {"name": "few_labels", "quick": True, "track_version": 1, **track},
+        "method": {"label": label},
+        "score": summarize(list(seeds.values()), higher_is_better=False),
+        "tasks": [{"world_seed": s, "scores": {"score": v}} for s, v in seeds.items()],
+        "provenance": {"git_commit": None},
+    }
+
+
+def _write(results: Path, result: dict, name: str | None = None, folder: str = "few_labels"):
+    path = results / folder / (name or f"{result['method']['label']}.quick.json")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(result))
+    return path
+
+
+def _table(results: Path, capsys) -> tuple[int, str, str]:
+    """The table command on ``results`` alone: exit status, stdout, stderr."""
+    status = main(
+        ["leaderboard", "table", "--markdown", "--no-reference", "--results", str(results)]
+    )
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def _row(out: str, label: str) -> str:
+    return next(line for line in out.splitlines() if line.startswith(f"| {label} | yours |"))
+
+
+def test_a_correct_result_is_shown_unchanged(tmp_path, capsys):
+    _write(tmp_path, _result("good"))
+    status, out, err = _table(tmp_path, capsys)
+    assert status == 0 and "skipped" not in err and "apart" not in err
+    assert _row(out, "good") == "| good | yours | 3.50 [0.32, 6.68] |"
+
+
+def test_a_result_that_records_no_commit_is_shown(tmp_path, capsys):
+    _write(tmp_path, {**_result("bare"), "provenance": {}})
+    status, out, err = _table(tmp_path, capsys)
+    assert status == 0 and "skipped" not in err
+    assert _row(out, "bare") == "| bare | yours | 3.50 [0.32, 6.68] |"
+
+
+def test_an_edited_mean_is_refused_with_both_numbers(tmp_path, capsys):
+    _write(tmp_path, _result("good"))
+    edited = _result("edited", {100: 14.0, 101: 14.02})
+    edited["score"]["mean"] = 0.01
+    path = _write(tmp_path, edited)
+    status, out, err = _table(tmp_path, capsys)
+    assert status == 0 and "| edited |" not in out and _row(out, "good")
+    line = next(line for line in err.splitlines() if str(path) in line)
+    assert line.startswith("warning: skipped") and "score.mean is 0.01" in line
+    assert "give 14.01" in line
+    # a round-off difference in the last digits is not an edit
+    nudged = _result("nudged")
+    nudged["score"]["mean"] += 1e-12
+    _write(tmp_path, nudged)
+    assert "| nudged | yours | 3.50 [0.32, 6.68] |" in _table(tmp_path, capsys)[1]
+
+
+@pytest.mark.parametrize(
+    ("folder", "name", "track", "expected"),
+    [
+        ("few_labels", "moved.quick.json", {"name": "train_test"}, "track 'train_test'"),
+        ("few_labels", "moved.json", {}, "at the quick size"),
+        ("few_labels", "other_label.quick.json", {}, "method 'moved'"),
+    ],
+)
+def test_a_file_whose_place_disagrees_with_its_content_is_refused(
+    tmp_path, capsys, folder, name, track, expected
+):
+    _write(tmp_path, _result("good"))
+    path = _write(tmp_path, _result("moved", **track), name, folder)
+    status, out, err = _table(tmp_path, capsys)
+    assert status == 0 and "| moved |" not in out and _row(out, "good")
+    line = next(line for line in err.splitlines() if str(path) in line)
+    assert expected in line and "must agree with its content" in line
+
+
+@pytest.mark.parametrize(
+    ("damage", "expected"),
+    [
+        (lambda text, data: text[: len(text) // 2], "cannot be read as JSON"),
+        (lambda text, data: json.dumps({k: v for k, v in data.items() if k != "score"}), "'score'"),
+        (lambda text, data: json.dumps({**data, "tasks": []}), "'tasks' is empty"),
+        (
+            lambda text, data: json.dumps(
+                {**data, "track": {**data["track"], "track_version": "1"}}
+            ),
+            "'track.track_version' is '1'; expected int",
+        ),
+        (
+            lambda text, data: text.replace('"score": 3.25', '"score": "3.25"'),
+            "task 0: 'scores.score' is '3.25'; expected number",
+        ),
+        (lambda text, data: text.replace('"quick": true', '"quick": 1'), "'track.quick' is 1"),
+        (lambda text, data: json.dumps([data]), "neither a result file"),
+        (
+            lambda text, data: text.replace('"score": 3.25', '"score": NaN'),
+            "task 0: 'scores.score' is nan; expected number",
+        ),
+        (
+            lambda text, data: text.replace('{"score": 3.75}', '{"score": 3.75, "parts": [1]}'),
+            "task 1: 'parts' is [1]; expected {part: number}",
+        ),
+        (
+            lambda text, data: json.dumps({**data, "provenance": {"versions": "numpy 2"}}),
+            "'provenance.versions' is 'numpy 2'",
+        ),
+    ],
+    ids=[
+        "truncated",
+        "no score",
+        "no tasks",
+        "version text",
+        "score text",
+        "quick int",
+        "list",
+        "score nan",
+        "parts list",
+        "versions text",
+    ],
+)
+def test_a_damaged_file_is_named_and_the_rest_is_shown(tmp_path, capsys, damage, expected):
+    _write(tmp_path, _result("good"))
+    path = _write(tmp_path, _result("bad"))
+    path.write_text(damage(path.read_text(), json.loads(path.read_text())))
+    status, out, err = _table(tmp_path, capsys)
+    assert status == 0 and "| bad |" not in out and _row(out, "good")
+    line = next(line for line in err.splitlines() if str(path) in line)
+    assert line.startswith("warning: skipped") and expected in line
+    # without a list to note it in, reading stops at it, naming it
+    with pytest.raises(ResultError, match=expected.replace("(", r"\(").replace("[", r"\[")):
+        load_results(tmp_path)
+
+
+def test_nothing_left_to_show_still_names_the_skipped_files(tmp_path, capsys):
+    path = _write(tmp_path, _result("bad"))
+    path.write_text("{")
+    status, _, err = _table(tmp_path, capsys)
+    assert status == 2 and f"warning: skipped {path}" in err and "error: no leaderboard" in err
+
+
+def test_another_track_version_or_seed_set_gets_a_column_of_its_own(tmp_path, capsys):
+    _write(tmp_path, _result("good"))
+    old = _write(tmp_path, _result("old", {100: 9.0, 101: 9.5}, track_version=7))
+    partial = _write(tmp_path, _result("partial", {100: 1.0}))
+    status, out, err = _table(tmp_path, capsys)
+    assert status == 0
+    header = next(line for line in out.splitlines() if line.startswith("| method | source |"))
+    columns = header.strip("| ").split(" | ")
+    assert columns == [
+        "method",
+        "source",
+        "few_labels (quick)",
+        "few_labels seeds [100] (quick)",
+        "few_labels v7 (quick)",
+    ]
+    assert _row(out, "good") == "| good | yours | 3.50 [0.32, 6.68] | - | - |"
+    assert _row(out, "old") == "| old | yours | - | - | 9.25 [6.07, 12.43] |"
+    assert _row(out, "partial") == "| partial | yours | - | 1.00 | - |"
+    assert "- few_labels v7 (quick): track version 7; the track file is version 1" in out
+    assert f"warning: {old}: track version 7; the track file is version 1" in err
+    assert f"warning: {partial}: world seeds [100]; the track file's are [100, 101]" in err
+    # a track of its own folder of track files: its results are taken as they are
+    board = load_board(tmp_path, tracks=tmp_path / "no tracks here")
+    assert board.tracks == ["few_labels (quick)"] and not board.apart
+
+
+def test_a_bad_gathered_entry_is_skipped_alone(tmp_path):
+    entries = json.loads((reference_folder() / "quick.json").read_text())["results"][:3]
+    entries[1]["score"]["mean"] += 1.0
+    entries[2]["per_world_seed"] = {"first": 1.0}
+    (tmp_path / "quick.json").write_text(json.dumps({"description": "", "results": entries}))
+    skipped: list[str] = []
+    (kept,) = load_results(tmp_path, REFERENCE, skipped)
+    assert kept["method"]["label"] == entries[0]["method"]
+    assert [line.split(":")[0] for line in skipped] == [
+        f"{tmp_path / 'quick.json'}, entry 1",
+        f"{tmp_path / 'quick.json'}, entry 2",
+    ]
+    assert "score.mean is" in skipped[0] and "expected seeds" in skipped[1]
+
+
+def test_the_committed_reference_loads_without_a_warning(capsys):
+    skipped: list[str] = []
+    results = load_results(reference_folder(), REFERENCE, skipped)
+    assert results and skipped == []
+    board = load_board(reference_folder(), skipped=skipped)
+    assert skipped == [] and not board.apart
+    assert main(["leaderboard", "table", "--markdown", "--results", str(reference_folder())]) == 0
+    err = capsys.readouterr().err
+    assert "skipped" not in err and "apart" not in err
+
+
+def test_publish_refuses_a_folder_with_an_edited_result(tmp_path, capsys):
+    _write(tmp_path / "results", _result("good"))
+    edited = _result("edited")
+    edited["score"]["ci95"] = [3.0, 4.0]
+    path = _write(tmp_path / "results", edited)
+    out = tmp_path / "quick.json"
+    args = ["leaderboard", "publish", "--results", str(tmp_path / "results"), "--out", str(out)]
+    assert main(args) == 2 and not out.exists()
+    err = capsys.readouterr().err
+    assert str(path) in err and "score.ci95 is [3.0, 4.0]" in err
