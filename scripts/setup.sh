@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Set up sfa-gym on a fresh Debian/Ubuntu machine: the system libraries for headless
-# rendering (EGL, OSMesa fallback), bubblewrap (the plug-ins' sandbox), a virtual environment in .venv, and the package with the
-# locked versions of the packages its numbers depend on (constraints.txt).
+# rendering (EGL, OSMesa fallback), bubblewrap (the plug-ins' sandbox), a virtual environment
+# in .venv, and the package with the locked versions of the packages its numbers depend on
+# (constraints.txt).
 #
 #   bash scripts/setup.sh          the library and its command line (sfa-gym)
 #   bash scripts/setup.sh test     also the test dependencies (pytest, hypothesis,
