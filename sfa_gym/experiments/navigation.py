@@ -25,10 +25,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym._checks import check_int, check_world_seed
-from sfa_gym.capabilities import Capabilities
 from sfa_gym.experiments.report import check_out_folder
 from sfa_gym.protocols import navigation as protocol
 from sfa_gym.protocols.settings import SFASettings
+from sfa_gym.protocols.slow_features import SlowFeatureMethod
 from sfa_gym.rotation import Rotation
 
 __all__ = ["NavigationExperiment", "format_navigation_table", "run_navigation_experiment"]
@@ -66,34 +66,25 @@ class NavigationExperiment(protocol.Config):
         self.sfa.validate()
 
 
-class _StoredSFA:
+class _StoredSFA(SlowFeatureMethod):
     """Hierarchical SFA fitted on every 5-column rotation of the training run, kept in
     ``path`` and read back from there by the next run into the same folder."""
 
     name = "sfa"
-    capabilities = Capabilities(fit_rotations=True, transform_rotations=True)
-    rotation = Rotation(step=5)
 
     def __init__(self, settings: SFASettings, path: Path, progress: bool) -> None:
-        self.settings, self.path, self.progress = settings, path, progress
+        super().__init__(settings, Rotation(step=5), progress)
+        self.path = path
 
     def fit_rotations(self, panoramas: NDArray[np.uint8]) -> _StoredSFA:
         from sfa_gym.sfa.io import load_model, save_model
 
-        if self.path.exists():
-            self.model_ = load_model(self.path)
+        if not self.path.exists():
+            save_model(super().fit_rotations(panoramas).model_, self.path)
             return self
-        _, h, w, _ = panoramas.shape
-        self.model_ = self.settings.make_model(h, w, self.progress)
-        self.model_.fit_rotations(panoramas, step=self.rotation.step)
-        save_model(self.model_, self.path)
+        self.model_ = load_model(self.path)
+        self.input_shape_ = self.model_.input_shape_
         return self
-
-    def transform(self, views: NDArray[np.uint8]) -> NDArray[np.float64]:
-        return self.model_.transform(views)
-
-    def transform_rotations(self, panoramas: NDArray[np.uint8], step: int) -> NDArray[np.float64]:
-        return self.model_.transform_rotations(panoramas, step=step)
 
 
 def _stored_settings(config: NavigationExperiment) -> dict[str, Any]:
