@@ -134,12 +134,13 @@ def test_navigation_episode_seeds_must_avoid_the_readme_episodes():
 def test_navigation_tracks_fix_every_controller_setting(change, message):
     data = json.loads((ROOT / "tracks" / "nav_open.json").read_text())
     track = track_from_dict(copy.deepcopy(data), "nav_open.json")
-    # track version 2 keeps the controller it was scored with: the library's defaults since
+    # track version 3 keeps the controller settings version 2 was scored with (version 3
+    # changed only the controller's arithmetic to the portable one): the library's defaults since
     # then search out of stalls (searches, search_after, search_found, give_up)
     scored_with = dataclasses.replace(
         GradientSettings(), searches=0, search_after=4.0, search_found=0.5, give_up=6.0
     )
-    assert track.track_version == 2
+    assert track.track_version == 3
     assert GradientSettings(**track.params["gradient"]) == scored_with
     change(data["params"]["gradient"])
     with pytest.raises(TrackError, match=message):

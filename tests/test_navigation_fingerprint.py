@@ -2,11 +2,11 @@
 track (contacts, where a difference in the physics grows fastest), each process rendering into
 its own cache and hashing strings with its own seed, gives the same episode fingerprint.
 
-Not yet the same on every CPU: numpy's float64 ``exp`` takes other kernels (and rounds
-differently in the last bit) where it dispatches to AVX-512, and the gradient controller's
-memory weights use it at every step; contacts grow that bit to decimetres within an episode.
-The expensive test below shows it on a CPU with AVX-512, by switching numpy's AVX-512 targets off
-in one process."""
+And on another CPU: numpy's float64 ``exp``/``power``/``arctan2`` take other kernels where it
+dispatches to AVX-512, and OpenBLAS picks its kernels per CPU; the controller's step, the field's
+look-up and its table use neither (:mod:`sfa_gym.navigation.portable`), which the test below
+checks by switching numpy's AVX-512 targets off and OpenBLAS to its Nehalem kernels in one
+process."""
 
 from __future__ import annotations
 
@@ -85,20 +85,19 @@ def _dispatches_avx512() -> bool:
     return "X86_V4" in __cpu_dispatch__ and bool(__cpu_features__.get("X86_V4"))
 
 
-@pytest.mark.expensive
 @pytest.mark.skipif(not _dispatches_avx512(), reason="numpy does not use AVX-512 on this CPU")
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="numpy's AVX-512 exp rounds differently; the gradient estimator's memory weights "
-    "(sfa_gym/navigation/feature_gradient.py) use it at every step",
-)
-def test_a_cpu_without_avx512_drives_the_same_maze_episodes(tmp_path):
-    # ten maze episodes: the tenth ends 0.17 m apart when numpy's AVX-512 kernels are off
-    off = {"NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR"}
+def test_another_cpus_kernels_drive_the_same_maze_episodes(tmp_path):
+    # ten maze episodes: before the controller's arithmetic was portable, their stops differed
+    # (in the tenth decimal here; by 0.17 m in one episode when only numpy's kernels were off)
+    other_cpu = {
+        "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
+        "OPENBLAS_CORETYPE": "Nehalem",
+    }
     processes = [
         _start(tmp_path / "cache_a", "1", "nav_maze", 10),
-        _start(tmp_path / "cache_b", "1", "nav_maze", 10, **off),
+        _start(tmp_path / "cache_b", "1", "nav_maze", 10, **other_cpu),
     ]
     first, second = (_result(p) for p in processes)
+    assert len(first["stops"]) == 10
     assert first["fingerprint"] == second["fingerprint"], (first, second)
+    assert first["stops"] == second["stops"]

@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from sfa_gym._checks import check_finite, check_int, check_positive, check_positive_int
 from sfa_gym.geometry import wrap_angle
+from sfa_gym.navigation import portable
 from sfa_gym.navigation.feature_gradient import LocalLinearFit, gauss_newton_step, slowness_weights
 from sfa_gym.sim.steering import Goto, Steering, WaypointFollower
 
@@ -290,14 +291,14 @@ class GradientController:
             self.mode = "probe"
             return self._probe(travelled, yaw, ranges)
         a, jac, noise = fit
-        metric = jac.T @ (self.weights[:, None] * jac)  # (2, 2) J^T W J
+        metric = portable.gram(jac, jac, self.weights)  # (2, 2) J^T W J
         step = gauss_newton_step(a, jac, g, self.weights, s.damping)
-        curvature = float(np.trace(metric)) / 2  # cost per m^2 of distance, on average
+        curvature = float(metric[0, 0] + metric[1, 1]) / 2  # cost per m^2 of distance, on average
         distance = math.sqrt(max(cost - noise, 0.0) / curvature) if curvature > 0 else math.inf
         if s.stop_curvature == "flattest":
             # near walls the features flatten across them, and the mean curvature would stop
             # the rover short of a goal there
-            stop_cost = s.stop_distance**2 * float(np.linalg.eigvalsh(metric)[0]) + noise
+            stop_cost = s.stop_distance**2 * portable.smallest_eigenvalue(metric) + noise
         else:
             stop_cost = s.stop_distance**2 * curvature + noise
         self.estimate = {"cost": cost, "distance": distance, "stop_cost": stop_cost}
@@ -326,7 +327,7 @@ class GradientController:
         weave = math.radians(s.weave_deg) * math.sin(
             self._phase + math.tau * travelled / s.weave_wavelength
         )
-        direction = step / (np.linalg.norm(step) + 1e-12) + s.repel * self._push(ranges, yaw)
+        direction = step / (portable.norm2(step) + 1e-12) + s.repel * self._push(ranges, yaw)
         descent = math.atan2(direction[1], direction[0])
         heading = wrap_angle(descent + weave - yaw)
         self.estimate.update(step=math.atan2(step[1], step[0]), descent=descent, weave=weave)

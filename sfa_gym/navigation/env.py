@@ -252,7 +252,7 @@ class OmniRoverNavEnv(OmniRoverEnv):
             return out
         xmat = self.data.xmat[self._body].reshape(3, 3)
         origin = self.data.xpos[self._body] + xmat[:, 2] * _RANGE_HEIGHT
-        directions = (self._ray_dirs @ xmat.T).ravel()
+        directions = np.einsum("ri,ji->rj", self._ray_dirs, xmat).ravel()  # not BLAS: portable
         mujoco.mj_multiRay(
             self.model, self.data, origin, directions, None, 1, self._body,
             self._ray_geom, self._ray_dist, None, self.range_rays, self.range_max,

@@ -3,7 +3,8 @@ from the features' slowness, the local linear model of the features fitted to it
 moves, and the Gauss-Newton step to the goal features under that model.
 
 Shared by the gradient controller (:mod:`sfa_gym.navigation.controllers`) and learning agents
-that see the same estimate. Numpy only.
+that see the same estimate. Numpy only, in :mod:`~sfa_gym.navigation.portable` arithmetic where
+it runs at every step (the same bits on every CPU).
 """
 
 from __future__ import annotations
@@ -12,6 +13,8 @@ import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from sfa_gym.navigation import portable
 
 __all__ = ["LocalLinearFit", "gauss_newton_step", "slowness_weights"]
 
@@ -76,9 +79,9 @@ class LocalLinearFit:
     def remember(self, position: NDArray, features: NDArray) -> None:
         """Add the features ``(k,)`` seen at the odometry position ``(2,)``."""
         if self._last_position is not None:
-            self.travelled += float(np.linalg.norm(position - self._last_position))
+            self.travelled += portable.norm2(position - self._last_position)
         self._last_position = position
-        if self._positions and np.linalg.norm(position - self._positions[-1]) < 0.01:
+        if self._positions and portable.norm2(position - self._positions[-1]) < 0.01:
             # turning on the spot adds no information: keep only the latest features there
             self._positions[-1], self._features[-1] = position, features
             self._odometer[-1] = self.travelled
@@ -96,20 +99,20 @@ class LocalLinearFit:
             return None
         p = np.array(self._positions) - self._last_position
         f = np.array(self._features)
-        sw = np.exp(-(self.travelled - np.array(self._odometer)) / self.memory)
+        sw = portable.exp(-(self.travelled - np.array(self._odometer)) / self.memory)
         design = np.column_stack([np.ones(len(p)), p])
-        normal = design.T @ (sw[:, None] * design)
-        rhs = design.T @ (sw[:, None] * f)
-        self.spread = math.sqrt(max(float(np.linalg.eigvalsh(np.cov(p.T, aweights=sw))[0]), 0.0))
+        normal = portable.gram(design, design, sw)
+        rhs = portable.gram(design, f, sw)
+        self.spread = math.sqrt(max(portable.smallest_eigenvalue(_weighted_covariance(p, sw)), 0.0))
         if self._jacobian is None and self.spread < 0.02:
             return None  # the moves span less than a couple of cm across
         if self._jacobian is not None:
             strength = self.prior * sw.sum()
             normal[1:, 1:] += strength * np.eye(2)
             rhs[1:] += strength * self._jacobian.T
-        coef = np.linalg.solve(normal, rhs)
+        coef = portable.solve(normal, rhs)
         a, self._jacobian = coef[0], coef[1:].T
-        residual = f - design @ coef
+        residual = f - np.einsum("ni,ik->nk", design, coef)
         noise = float(np.sum(sw[:, None] * self.weights * residual**2) / max(sw.sum() - 3, 1))
         return a, self._jacobian, noise
 
@@ -120,7 +123,15 @@ def gauss_newton_step(
     """The damped Gauss-Newton step ``-(J^T W J + mu I)^-1 J^T W (a - g)`` (m, in the odometry
     frame) towards the goal features ``g`` under the local linear model, ``mu`` = ``damping``
     times the trace of ``J^T W J``."""
-    metric = jacobian.T @ (weights[:, None] * jacobian)
-    gradient = jacobian.T @ (weights * (a - goal))
-    mu = damping * float(np.trace(metric)) + 1e-12
-    return -np.linalg.solve(metric + mu * np.eye(2), gradient)
+    metric = portable.gram(jacobian, jacobian, weights)
+    gradient = np.einsum("ki,k->i", jacobian, weights * (a - goal))
+    mu = damping * float(metric[0, 0] + metric[1, 1]) + 1e-12
+    return -portable.solve(metric + mu * np.eye(2), gradient)
+
+
+def _weighted_covariance(p: NDArray, weights: NDArray) -> NDArray:
+    """``np.cov(p.T, aweights=weights)`` of positions ``(n, 2)`` (unbiased for reliability
+    weights), in :mod:`~sfa_gym.navigation.portable` arithmetic."""
+    total = weights.sum()
+    centred = p - np.einsum("n,ni->i", weights, p) / total
+    return portable.gram(centred, centred, weights) / (total - (weights**2).sum() / total)

@@ -81,6 +81,7 @@ import os
 import time
 import zipfile
 from collections.abc import Callable
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -181,7 +182,9 @@ def _catmull_rom(n: int, t: NDArray[np.float64]) -> NDArray[np.float64]:
     ghosts[1:-1] = np.eye(n)
     ghosts[0, :2] = (2, -1)
     ghosts[-1, -2:] = (-1, 2)
-    return np.concatenate([weights @ ghosts[i : i + 4] for i in range(n - 1)])
+    # numpy's own loops, not BLAS (whose kernels differ per CPU): the same table everywhere
+    cells = [np.einsum("tm,mn->tn", weights, ghosts[i : i + 4]) for i in range(n - 1)]
+    return np.concatenate(cells)
 
 
 def _interpolation_matrix(nodes: NDArray[np.float64], interpolation: str) -> NDArray[np.float64]:
@@ -198,6 +201,24 @@ def _interpolation_matrix(nodes: NDArray[np.float64], interpolation: str) -> NDA
     spline = make_interp_spline(nodes, np.eye(n), k=min(degree, n - 1))
     samples = (nodes[:-1, None] + t[None, :] * np.diff(nodes)[:, None]).ravel()
     return spline(samples)
+
+
+def _vandermonde_inverse(n: int) -> NDArray[np.float64]:
+    """The inverse of the ``n x n`` Vandermonde matrix ``t_a ** p`` at ``t = linspace(0, 1, n)``
+    (row ``p``: the coefficient of ``t ** p`` from the ``n`` samples), solved in exact fractions
+    and rounded once: the same on every CPU."""
+    t = [Fraction(a, n - 1) if n > 1 else Fraction(0) for a in range(n)]
+    identity = [[Fraction(int(a == b)) for b in range(n)] for a in range(n)]
+    rows = [[t[a] ** p for p in range(n)] + identity[a] for a in range(n)]
+    for c in range(n):  # Gauss-Jordan on [V | I]; exact, so no pivoting is needed beyond non-zero
+        pivot = next(r for r in range(c, n) if rows[r][c] != 0)
+        rows[c], rows[pivot] = rows[pivot], rows[c]
+        rows[c] = [v / rows[c][c] for v in rows[c]]
+        for r in range(n):
+            if r != c and rows[r][c] != 0:
+                rows[r] = [v - rows[r][c] * w for v, w in zip(rows[r], rows[c], strict=True)]
+    # rows hold V^-1 with V[a, p] = t_a ** p: V^-1[p, a] maps samples to coefficients
+    return np.array([[float(rows[p][n + a]) for a in range(n)] for p in range(n)])
 
 
 def _cell_polynomials(
@@ -220,12 +241,14 @@ def _cell_polynomials(
     # The spline is a polynomial of this degree within each cell, so its values at (d+1)^2
     # points of a cell determine the cell's coefficients exactly (a Vandermonde solve).
     mx, my = _interpolation_matrix(xs, interpolation), _interpolation_matrix(ys, interpolation)
-    samples = np.einsum("sj,ti,jik->stk", my, mx, values, optimize=True)  # (sy, sx, k)
+    # numpy's own einsum loops, one factor at a time, not BLAS (optimize=True would call it),
+    # whose kernels differ per CPU: the same table, and so the same episodes, on every CPU
+    samples = np.einsum("sj,jtk->stk", my, np.einsum("ti,jik->jtk", mx, values))  # (sy, sx, k)
     samples = samples.reshape(ny - 1, d1, nx - 1, d1, k)
-    t = np.linspace(0.0, 1.0, d1)
-    inverse = np.linalg.inv(t[:, None] ** np.arange(d1)[None, :])  # power <- sample
+    inverse = _vandermonde_inverse(d1)  # power <- sample
     # samples[j, b, i, a] is at v = t[b], u = t[a]; coefficients [j, i, p (u), q (v)]
-    coefficients = np.einsum("pa,qb,jbiak->jipqk", inverse, inverse, samples, optimize=True)
+    along_u = np.einsum("pa,jbiak->jbipk", inverse, samples)
+    coefficients = np.einsum("qb,jbipk->jipqk", inverse, along_u)
     # the node values themselves, not their rounded reconstruction: exact at the nodes
     coefficients[:, :, 0, 0] = values[:-1, :-1]
     return np.ascontiguousarray(coefficients.reshape((ny - 1) * (nx - 1), d1 * d1, k))
@@ -491,7 +514,9 @@ class FeatureField:
                        u2, u2 * v, u2 * v2, u2 * v3, u3, u3 * v, u3 * v2, u3 * v3]  # fmt: skip
         else:
             weights = [1.0, v, u, u * v]
-        return np.dot(weights, self._table[j * self._cells_x + i]).astype(np.float32)
+        cell = self._table[j * self._cells_x + i]
+        # numpy's own loop, not BLAS, whose kernels differ per CPU (navigation.portable)
+        return np.einsum("m,mk->k", np.array(weights), cell).astype(np.float32)
 
     def __call__(self, points: ArrayLike) -> NDArray[np.float32]:
         """Features at ``points``: ``(n, 2)`` positions (m) -> ``(n, k)`` float32; a single
@@ -509,10 +534,10 @@ class FeatureField:
         v = np.clip((p[:, 1] - self._y0) * self._inv_dy, 0.0, self._vmax)
         i = np.minimum(u.astype(np.intp), self._cells_x - 1)
         j = np.minimum(v.astype(np.intp), self._cells_y - 1)
-        powers = np.arange(self._degree + 1)
-        pu = (u - i)[:, None] ** powers
-        pv = (v - j)[:, None] ** powers
-        weights = (pu[:, :, None] * pv[:, None, :]).reshape(len(p), len(powers) ** 2)
+        # powers by products: numpy's float64 power takes another kernel on AVX-512 CPUs
+        pu = np.cumprod(np.column_stack([np.ones(len(p))] + [u - i] * self._degree), axis=1)
+        pv = np.cumprod(np.column_stack([np.ones(len(p))] + [v - j] * self._degree), axis=1)
+        weights = (pu[:, :, None] * pv[:, None, :]).reshape(len(p), (self._degree + 1) ** 2)
         cells = self._table[j * self._cells_x + i]  # (n, (d+1)^2, k)
         return np.einsum("nm,nmk->nk", weights, cells).astype(np.float32)
 
