@@ -22,7 +22,8 @@ The machine's load average is recorded before and after each phase: on a shared 
 figures are noisy. Writes ``published/benchmarks/leaderboard_bench.json`` (``--json``).
 
 3. **Full size** (``--full-size METHOD``, instead of 1 and 2): one full-size task per track
-   (its first world seed) from a cold cache, timed; the full board's time per track is
+   (its first world seed) from a cold cache, timed, with its seconds per phase (render, fit,
+   features, episodes, other: :mod:`sfa_gym.phases`); the full board's time per track is
    estimated as that times the track's world seeds (each world seed renders its own runs).
 
 Backs docs/leaderboard.md (measured times).
@@ -145,6 +146,7 @@ def full_size_tasks(tracks: list[Any], method: str, cache: RunCache) -> list[dic
                 "world_seeds": len(seeds),
                 "estimated_track_seconds": round(seconds * len(seeds), 1),
                 "score": output["scores"]["score"],
+                "phases": output["phases"],
                 "load_before": load,
                 "load_after": _load(),
             }
@@ -152,7 +154,9 @@ def full_size_tasks(tracks: list[Any], method: str, cache: RunCache) -> list[dic
         print(
             f"{track.name:18s} full size, world seed {seeds[0]}: {seconds:7.1f} s ({renders} "
             f"renders, {render_s:.1f} s); x {len(seeds)} world seeds = "
-            f"{seconds * len(seeds) / 60:.1f} min  score {output['scores']['score']:.3f}",
+            f"{seconds * len(seeds) / 60:.1f} min  score {output['scores']['score']:.3f}\n"
+            f"{'':18s} phases: "
+            + ", ".join(f"{name} {s:.1f} s" for name, s in output["phases"].items()),
             flush=True,
         )
     return rows

@@ -13,11 +13,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym.capabilities import Capabilities, get_capabilities
+from sfa_gym.phases import phase
 from sfa_gym.rotation import rotated_views
 
 __all__ = ["EmbeddedFeatures", "rotation_averaged_features"]
 
 
+@phase("features")
 def rotation_averaged_features(
     model: Any, panoramas: NDArray[np.uint8], step: int = 1, window: int | None = None
 ) -> NDArray[np.float64]:

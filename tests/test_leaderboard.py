@@ -573,6 +573,10 @@ def test_navigation_task_in_the_obstacle_world_reuses_the_renders(tmp_path):
     strict_json(first)  # a result file can hold it (no NaN, e.g. without interior episodes)
     if scores["interior"]["episodes"] == 0:
         assert scores["interior"]["success"] is None
+    # where the time went: every phase of a navigation task, adding up to the task's seconds
+    assert set(first["phases"]) == {"render", "fit", "features", "episodes", "other"}
+    assert sum(first["phases"].values()) == pytest.approx(first["seconds"], abs=0.1)
     second = run_task(Task(str(track), str(plugin), {"rows": 2}, 101, False, str(cache)))
     assert len(RunCache(cache).renders()) == 2  # another method: no new render
+    assert "render" not in second["phases"] and second["phases"]["episodes"] > 0
     assert second["scores"]["training_positions"] == scores["training_positions"]

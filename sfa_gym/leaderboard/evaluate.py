@@ -22,6 +22,7 @@ from typing import Any
 from threadpoolctl import threadpool_limits
 
 from sfa_gym.leaderboard.tracks import Track, load_track, protocol_module
+from sfa_gym.phases import measure
 from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
 from sfa_gym.sandbox import Limits
@@ -116,12 +117,20 @@ def plugins_isolated() -> bool:
 
 
 def run_task(task: Task) -> dict[str, Any]:
-    """Evaluate ``task``; returns ``{"world_seed", "fit_world_seed", "scores", "seconds"}``.
+    """Evaluate ``task``; returns ``{"world_seed", "fit_world_seed", "scores", "seconds",
+    "phases"}``.
 
     ``scores["score"]`` is the track's score (see the module docstring); the other entries are
     its parts. ``seconds`` is the wall time of the task (renders included when the cache had
-    no entry yet).
+    no entry yet), ``phases`` its parts (:mod:`sfa_gym.phases`: render, fit, features, episodes,
+    other; the plug-in's calls counted where the evaluator waits for them).
     """
+    with measure() as phases:
+        out = _run_task(task)
+    return {**out, "phases": phases.as_dict()}
+
+
+def _run_task(task: Task) -> dict[str, Any]:
     started = time.perf_counter()
     track = load_track(task.track_path)
     seeds, _ = track.sized(task.quick)

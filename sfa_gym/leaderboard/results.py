@@ -8,7 +8,7 @@ A result file ``<results>/<track>/<method label>[.quick].json`` holds::
      "method": {"name", "path", "sha256", "args"},
      "score": {"mean", "ci95": [lo, hi] | null, "interval": "t", "n", "std",
                "higher_is_better"},
-     "tasks": [{"world_seed", "fit_world_seed", "scores": {...}, "seconds"}, ...],
+     "tasks": [{"world_seed", "fit_world_seed", "scores": {...}, "seconds", "phases"}, ...],
      "provenance": {"sfa_gym_version", "git_commit", "python", "platform", "machine",
                     "cpus", "backend", "created", "seconds", "versions", "cpu_numerics"}}
 
@@ -237,6 +237,7 @@ def gathered_entry(result: dict[str, Any]) -> dict[str, Any]:
         "per_world_seed": {str(t["world_seed"]): t["scores"]["score"] for t in tasks},
         "parts": mean_parts(result),
         "task_seconds": [t.get("seconds") for t in tasks],
+        "task_phases": [t.get("phases") for t in tasks],
         **{k: provenance.get(k) for k in _GATHERED_PROVENANCE},
         **({"fingerprints": fingerprints} if fingerprints else {}),
     }

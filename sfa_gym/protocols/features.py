@@ -14,6 +14,7 @@ from tqdm.auto import tqdm
 
 from sfa_gym.capabilities import get_capabilities
 from sfa_gym.localization import eta_phi, eta_r
+from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod
 from sfa_gym.rotation import Rotation
 
@@ -31,6 +32,7 @@ __all__ = [
 VIEWS_PER_BLOCK = 4096
 
 
+@phase("features")
 def view_features(
     method: FeatureMethod,
     panoramas: NDArray[np.uint8],
@@ -78,6 +80,7 @@ def view_features(
     return np.concatenate(out)
 
 
+@phase("fit")
 def fit_method(
     method: FeatureMethod, panoramas: NDArray[np.uint8], rotation: Rotation
 ) -> FeatureMethod:

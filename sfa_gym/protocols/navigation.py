@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from sfa_gym._checks import check_int, check_positive, check_positive_int
 from sfa_gym.navigation.controllers import GradientSettings
+from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols.settings import EnvId, check_choice, check_env_id
 
@@ -295,6 +296,7 @@ ControllerMaker = Callable[[Any], Any]
 """``make(env) -> controller`` for an env that observes the feature field."""
 
 
+@phase("episodes")
 def run_controller(
     config: Config,
     world_seed: int,
