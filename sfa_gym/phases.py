@@ -18,7 +18,9 @@ from dataclasses import dataclass, field
 __all__ = ["PHASES", "Phases", "measure", "phase"]
 
 PHASES = ("render", "fit", "features", "episodes")
-"""The phases the protocols mark: rendering runs into the render cache, fitting the method,
+"""The phases the protocols mark: reading runs from the render cache (rendering those it does
+not hold yet; marked where the protocols read, so that the rendering code, whose hash keys the
+cache, stays as it is), fitting the method,
 computing its features (rotation averages and feature fields included), the navigation
 episodes."""
 

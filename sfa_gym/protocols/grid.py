@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from sfa_gym._checks import check_int, check_positive_int, check_world_seed
 from sfa_gym.localization import fit_predict, mae, make_regressor, random_split_mae
 from sfa_gym.localization.metrics import MAE, SplitMAE, mae_dict
+from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols import RunSource
 from sfa_gym.protocols.features import fitted_features, invariance_entry, method_regressors
@@ -180,7 +181,8 @@ class GridData:
 def load(config: Config, world_seed: int, runs: RunSource) -> GridData:
     """The grid of ``world_seed`` from ``runs`` (rendered there if needed), with the training
     and test positions the protocol selects."""
-    run = runs.get(requests(config, world_seed)["grid"])
+    with phase("render"):
+        run = runs.get(requests(config, world_seed)["grid"])
     train, test = select_positions(config, len(run))
     return GridData(np.asarray(run.panoramas), run.positions, train, test)
 

@@ -177,7 +177,8 @@ def training_run(config: Config, nav: Any, runs: Any) -> TrainingRun:
         yaw=0.0 if config.train_headings == "zero" else None,
         hilbert_axes=config.hilbert_axes,
     )
-    run = runs.get(_request(nav, driver, config.seed))
+    with phase("render"):
+        run = runs.get(_request(nav, driver, config.seed))
     # the grid where the rover fits, less the cells the occupancy grid rounds to occupied
     free = np.asarray(nav.occupancy.is_free(run.positions), dtype=bool)
     positions = np.asarray(run.positions, dtype=np.float64)[free]
@@ -250,7 +251,8 @@ def feature_field(
 
     driver = FieldNodes(spacing)
     request = _request(nav, driver, seed)
-    run = runs.get(request)
+    with phase("render"):
+        run = runs.get(request)
     nodes, fits = driver.nodes(nav)
     if len(run) != int(fits.sum()) or not np.allclose(run.positions, nodes[fits], atol=1e-6):
         raise RuntimeError(

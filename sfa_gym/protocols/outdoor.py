@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from sfa_gym._checks import check_int, check_positive_int, is_number
 from sfa_gym.localization.appearance import Normalisation, normalise_panoramas
+from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod, get_capabilities
 from sfa_gym.protocols.features import fit_method, full_width, invariance_entry, view_features
 from sfa_gym.protocols.settings import check_choice
@@ -305,7 +306,8 @@ def load_data(config: Config, world_seed: int, runs: Any) -> OutdoorData:
 
     config.validate()
     asked = requests(config, world_seed)
-    got = {name: runs.get(request) for name, request in asked.items()}
+    with phase("render"):
+        got = {name: runs.get(request) for name, request in asked.items()}
     drive, n = got["drive"], config.train_frames
     if len(drive) != n + config.test_frames:
         raise ValueError(

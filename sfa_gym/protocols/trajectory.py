@@ -32,6 +32,7 @@ from sfa_gym._checks import check_finite, check_int, check_positive_int, check_w
 from sfa_gym.geometry import check_rectangle, in_rectangle
 from sfa_gym.localization import fit_predict, mae, make_regressor
 from sfa_gym.localization.metrics import MAE, mae_dict
+from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols import RunSource
 from sfa_gym.protocols.features import fitted_features, invariance_entry, method_regressors
@@ -211,7 +212,8 @@ def load(config: Config, world_seed: int, runs: RunSource) -> TrajectoryData:
         ValueError: fewer than 2 training locations or 2 evaluated test frames.
     """
     found = requests(config, world_seed)
-    train_run, test_run = runs.get(found["train"]), runs.get(found["test"])
+    with phase("render"):
+        train_run, test_run = runs.get(found["train"]), runs.get(found["test"])
     train_idx = np.arange(0, len(train_run), config.frame_every)
     test_idx = np.arange(0, len(test_run), config.test_every)
     if len(train_idx) < 2 or len(test_idx) < 2:

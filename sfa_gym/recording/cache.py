@@ -42,8 +42,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sfa_gym.phases import phase
-
 __all__ = [
     "RENDERING_VERSION",
     "RunCache",
@@ -318,7 +316,6 @@ class RunCache:
                 return run
             return self._render(request, path)
 
-    @phase("render")
     def _render(self, request: RunRequest, path: Path) -> Any:
         from sfa_gym.files import write_json_atomic
         from sfa_gym.recording.recorder import record
