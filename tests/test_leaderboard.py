@@ -578,5 +578,7 @@ def test_navigation_task_in_the_obstacle_world_reuses_the_renders(tmp_path):
     assert sum(first["phases"].values()) == pytest.approx(first["seconds"], abs=0.1)
     second = run_task(Task(str(track), str(plugin), {"rows": 2}, 101, False, str(cache)))
     assert len(RunCache(cache).renders()) == 2  # another method: no new render
-    assert "render" not in second["phases"] and second["phases"]["episodes"] > 0
+    # read from the cache, not rendered: a small part of the first task's render phase
+    assert second["phases"]["render"] < first["phases"]["render"] / 4
+    assert second["phases"]["episodes"] > 0
     assert second["scores"]["training_positions"] == scores["training_positions"]
