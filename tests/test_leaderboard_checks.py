@@ -63,7 +63,12 @@ def _nav_result(label: str, prints: dict[int, str], versions: dict | None) -> di
     return {
         "format": FORMAT,
         "schema_version": SCHEMA_VERSION,
-        "track": {"name": "nav_open", "quick": True, "track_version": NAV_OPEN.track_version},
+        "track": {
+            "name": "nav_open",
+            "quick": True,
+            "track_version": NAV_OPEN.track_version,
+            "size_params": json.loads(json.dumps(NAV_OPEN.sized(True)[1])),
+        },
         "method": {"label": label, "sha256": None},
         "score": summarize([0.5] * len(prints), higher_is_better=True),
         "tasks": [

@@ -104,6 +104,19 @@ def test_a_rerun_runs_no_finished_task_and_a_stale_one_again(tmp_path, calls, ca
     assert json.loads(task_file.read_text())["identity"]["method"]["sha256"] == new_sha
 
     calls.clear()
+    run_sweep([track], [(method, {})], results, quick=True, **common)
+    assert [t.world_seed for t in calls] == [100]  # another size: its own tasks
+    calls.clear()
+    # a quick section edited (one more world seed, a smaller grid): the quick tasks are stale,
+    # the full size's are not
+    edited = {**TINY, "quick": {"world_seeds": 2, "params": {"grid": 5, "n_train": 12}}}
+    track = load_track(_write_track(tracks, edited))
+    run_sweep([track], [(method, {})], results, **common)
+    assert calls == []
+    run_sweep([track], [(method, {})], results, quick=True, **common)
+    assert [t.world_seed for t in calls] == [100, 101]
+
+    calls.clear()
     bumped = load_track(_write_track(tracks, {**TINY, "track_version": 2}))
     run_sweep([bumped], [(method, {})], results, quick=True, **common)
     assert [t.world_seed for t in calls] == [100]  # another size: its own tasks

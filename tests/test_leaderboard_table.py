@@ -5,6 +5,7 @@ errors."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -17,6 +18,13 @@ from sfa_gym.leaderboard.results import (
     reference_folder,
     summarize,
 )
+from sfa_gym.leaderboard.tracks import load_track
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _quick_size(track: str) -> dict:
+    return load_track(ROOT / "tracks" / f"{track}.json").sized(True)[1]
 
 
 def _result(track: str, label: str, seeds: dict[int, float]) -> dict:
@@ -25,7 +33,13 @@ def _result(track: str, label: str, seeds: dict[int, float]) -> dict:
     return {
         "format": FORMAT,
         "schema_version": SCHEMA_VERSION,
-        "track": {"name": track, "quick": True, "track_version": 1},
+        "track": {
+            "name": track,
+            "quick": True,
+            "track_version": 1,
+            # the quick size of the track file, as a result records it
+            "size_params": json.loads(json.dumps(_quick_size(track))),
+        },
         "method": {"label": label},
         "score": summarize(values, higher_is_better=False),
         "tasks": [{"world_seed": s, "scores": {"score": v}} for s, v in seeds.items()],

@@ -21,9 +21,13 @@ from sfa_gym.leaderboard.results import (
     summarize,
 )
 from sfa_gym.leaderboard.table import load_board
+from sfa_gym.leaderboard.tracks import load_track
 
+ROOT = Path(__file__).resolve().parents[1]
 GOOD = {100: 3.25, 101: 3.75}
 """The quick world seeds of few_labels (tracks/few_labels.json, version 1) and their scores."""
+QUICK_SIZE = json.loads(json.dumps(load_track(ROOT / "tracks" / "few_labels.json").sized(True)[1]))
+"""The parameters of few_labels at its quick size, as a result records them."""
 
 
 def _result(label: str, seeds: dict[int, float] = GOOD, **track: object) -> dict:
@@ -31,7 +35,13 @@ def _result(label: str, seeds: dict[int, float] = GOOD, **track: object) -> dict
     return {
         "format": FORMAT,
         "schema_version": SCHEMA_VERSION,
-        "track": {"name": "few_labels", "quick": True, "track_version": 1, **track},
+        "track": {
+            "name": "few_labels",
+            "quick": True,
+            "track_version": 1,
+            "size_params": QUICK_SIZE,
+            **track,
+        },
         "method": {"label": label},
         "score": summarize(list(seeds.values()), higher_is_better=False),
         "tasks": [{"world_seed": s, "scores": {"score": v}} for s, v in seeds.items()],
@@ -171,6 +181,27 @@ def test_nothing_left_to_show_still_names_the_skipped_files(tmp_path, capsys):
     path.write_text("{")
     status, _, err = _table(tmp_path, capsys)
     assert status == 2 and f"warning: skipped {path}" in err and "error: no leaderboard" in err
+
+
+def test_a_quick_result_of_another_quick_size_gets_a_column_of_its_own(tmp_path, capsys):
+    # the quick section of a track file can change without a new track version
+    _write(tmp_path, _result("good"))
+    _write(tmp_path, _result("smaller", size_params={**QUICK_SIZE, "grid": 8}))
+    unknown = _result("unknown")
+    del unknown["track"]["size_params"]  # written before results recorded their size
+    _write(tmp_path, unknown)
+    status, out, err = _table(tmp_path, capsys)
+    assert status == 0
+    header = next(line for line in out.splitlines() if line.startswith("| method | source |"))
+    assert header.strip("| ").split(" | ")[2:] == [
+        "few_labels (quick)",
+        "few_labels other size (quick)",
+        "few_labels size not recorded (quick)",
+    ]
+    assert _row(out, "good") == "| good | yours | 3.50 [0.32, 6.68] | - | - |"
+    assert _row(out, "smaller") == "| smaller | yours | - | 3.50 [0.32, 6.68] | - |"
+    assert _row(out, "unknown") == "| unknown | yours | - | - | 3.50 [0.32, 6.68] |"
+    assert "'grid': 8" in err and "does not record its quick size" in err
 
 
 def test_another_track_version_or_seed_set_gets_a_column_of_its_own(tmp_path, capsys):

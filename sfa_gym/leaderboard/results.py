@@ -4,7 +4,7 @@ built from them is :mod:`sfa_gym.leaderboard.table`).
 A result file ``<results>/<track>/<method label>[.quick].json`` holds::
 
     {"format": "sfa-gym-leaderboard-result", "schema_version": 1,
-     "track": {...the track file's content..., "quick": bool},
+     "track": {...the track file's content..., "quick": bool, "size_params": {...}},
      "method": {"name", "path", "sha256", "args"},
      "score": {"mean", "ci95": [lo, hi] | null, "interval": "t", "n", "std",
                "higher_is_better"},
@@ -132,7 +132,9 @@ def make_result(
     return {
         "format": FORMAT,
         "schema_version": SCHEMA_VERSION,
-        "track": {**track.describe(), "quick": quick},
+        # the size's own parameters: a quick section edited without a new track version gives
+        # results of another size under the same version, which the table keeps apart
+        "track": {**track.describe(), "quick": quick, "size_params": track.sized(quick)[1]},
         "method": method,
         "score": summarize([t["scores"]["score"] for t in tasks], higher_is_better),
         "tasks": tasks,
@@ -199,7 +201,8 @@ def _from_gathered(entry: Any, where: str, source: str) -> dict[str, Any]:
             "name": entry["track"],
             "quick": entry["quick"],
             "track_version": entry["track_version"],
-        },
+        }
+        | ({"size_params": entry["size_params"]} if "size_params" in entry else {}),
         "method": {"label": entry["method"], "sha256": entry.get("method_sha256")},
         "score": entry["score"],
         "tasks": [
@@ -231,6 +234,11 @@ def gathered_entry(result: dict[str, Any]) -> dict[str, Any]:
         "track": result["track"]["name"],
         "track_version": result["track"]["track_version"],
         "quick": bool(result["track"]["quick"]),
+        **(
+            {"size_params": result["track"]["size_params"]}
+            if "size_params" in result["track"]
+            else {}
+        ),
         "method": result["method"]["label"],
         "method_sha256": result["method"].get("sha256"),
         "score": result["score"],

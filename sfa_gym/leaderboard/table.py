@@ -10,6 +10,7 @@ averaged or ranked with the current version's; :attr:`Board.apart` says why.
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -80,11 +81,17 @@ def current_tracks(folder: str | os.PathLike[str] | None = None) -> dict[str, Tr
         return {}
 
 
+def _as_json(value: Any) -> Any:
+    return json.loads(json.dumps(value))
+
+
 def column_of(result: dict[str, Any], tracks: Mapping[str, Track]) -> tuple[str, str | None]:
     """The column of ``result`` and, when it is apart from the current track's column, why: its
     track, then ``" v<N>"`` when its track version is not that of ``tracks[name]``, else
-    ``" seeds [...]"`` when its world seeds are not the track's at its size, then ``" (quick)"``
-    at the quick size. A track not in ``tracks`` is taken as it is."""
+    ``" seeds [...]"`` when its world seeds are not the track's at its size, else
+    ``" other size"`` when a quick result's parameters are not the track file's quick size
+    (``" size not recorded"`` when it does not say), then ``" (quick)"`` at the quick size. A
+    track not in ``tracks`` is taken as it is."""
     info = result["track"]
     name, quick, version = info["name"], info["quick"], info["track_version"]
     seeds = sorted(task["world_seed"] for task in result["tasks"])
@@ -96,6 +103,16 @@ def column_of(result: dict[str, Any], tracks: Mapping[str, Track]) -> tuple[str,
     elif track is not None and seeds != sorted(track.sized(quick)[0]):
         name += f" seeds {seeds}"
         why = f"world seeds {seeds}; the track file's are {sorted(track.sized(quick)[0])}"
+    elif track is not None and quick and info.get("size_params") != _as_json(track.sized(True)[1]):
+        # the quick section changed without a new track version (it is not the track's
+        # definition); a result that does not record its size is of an unknown one
+        recorded = info.get("size_params")
+        if recorded is None:
+            name += " size not recorded"
+            why = "the result does not record its quick size (written before results did)"
+        else:
+            name += " other size"
+            why = f"quick size {recorded}; the track file's is {_as_json(track.sized(True)[1])}"
     return name + (" (quick)" if quick else ""), why
 
 

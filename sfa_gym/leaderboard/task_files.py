@@ -12,7 +12,9 @@ SIGTERM, SIGKILL, a dead Ray worker) keeps every finished task and a rerun resum
      "provenance": {"sfa_gym_version", "git_commit", "backend", "node", "created"}}
 
 A rerun reuses a task's output only when the file's ``identity`` is the task's: the same track
-version and content (``sha256`` of the track file's content, its description aside), the same
+version and content at the task's size (``sha256`` of the track file's content with the
+parameters and world seeds of that size, its description aside: editing the quick section does
+not invalidate the full size's tasks), the same
 method file (its SHA-256) with the same arguments (all of them, the defaults filled in), the
 same world seed, size and controller. A file of another track version or method file, a
 failure, or a damaged file is computed again and overwritten.
@@ -71,7 +73,12 @@ def task_identity(
     """What decides a task's scores, in JSON types (see the module docstring); ``method`` and
     ``controller`` are the sweep's descriptions of the plug-ins (``name``, ``sha256``,
     ``all_args``)."""
-    content = {k: v for k, v in track.describe().items() if k != "description"}
+    # the track as it decides this size's scores: its quick section matters only at the quick
+    # size, and there only through the parameters and world seeds it gives
+    content = {
+        k: v for k, v in track.describe().items() if k not in ("description", "quick", "params")
+    }
+    content["world_seeds"], content["params"] = track.sized(quick)
     identity = {
         "track": {
             "name": track.name,
