@@ -266,3 +266,32 @@ def test_publish_refuses_a_folder_with_an_edited_result(tmp_path, capsys):
     assert main(args) == 2 and not out.exists()
     err = capsys.readouterr().err
     assert str(path) in err and "score.ci95 is [3.0, 4.0]" in err
+
+
+@pytest.mark.parametrize("isolation", ["process", "in-process"])
+def test_publish_refuses_results_whose_plug_ins_ran_unconfined(tmp_path, capsys, isolation):
+    confined = _result("confined")
+    for task in confined["tasks"]:
+        task["isolation"] = "bwrap"
+    _write(tmp_path / "results", confined)
+    loose = _result("loose")
+    loose["tasks"][1]["isolation"] = isolation
+    path = _write(tmp_path / "results", loose)
+    out = tmp_path / "quick.json"
+    args = ["leaderboard", "publish", "--results", str(tmp_path / "results"), "--out", str(out)]
+    assert main(args) == 2 and not out.exists()
+    err = capsys.readouterr().err
+    assert str(path) in err and "ran unconfined" in err
+    path.unlink()  # the confined result alone is published, saying how it ran
+    assert main(args) == 0
+    (entry,) = json.loads(out.read_text())["results"]
+    assert entry["isolation"] == ["bwrap"]
+
+
+def test_a_task_records_how_its_plug_ins_ran(monkeypatch):
+    from sfa_gym.leaderboard.evaluate import IN_PROCESS, isolation
+    from sfa_gym.sandbox.process import confinement
+
+    assert isolation() == ("bwrap" if confinement() is not None else "process")
+    monkeypatch.setenv(IN_PROCESS, "1")
+    assert isolation() == "in-process"

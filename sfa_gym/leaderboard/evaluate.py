@@ -27,7 +27,7 @@ from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
 from sfa_gym.sandbox import Limits
 
-__all__ = ["HIGHER_IS_BETTER", "IN_PROCESS", "Task", "plugins_isolated", "run_task"]
+__all__ = ["HIGHER_IS_BETTER", "IN_PROCESS", "Task", "isolation", "plugins_isolated", "run_task"]
 
 HIGHER_IS_BETTER = {"localization": False, "navigation": True}
 """Direction of the ``score`` of each track kind."""
@@ -116,6 +116,17 @@ def plugins_isolated() -> bool:
     return os.environ.get(IN_PROCESS, "") != "1"
 
 
+def isolation() -> str:
+    """How this process runs plug-ins: ``"bwrap"`` (worker processes confined by bubblewrap),
+    ``"process"`` (plain worker processes: no bubblewrap here) or ``"in-process"``
+    (:data:`IN_PROCESS`). Only ``"bwrap"`` results can be published."""
+    from sfa_gym.sandbox.process import confinement
+
+    if not plugins_isolated():
+        return "in-process"
+    return "bwrap" if confinement() is not None else "process"
+
+
 def run_task(task: Task) -> dict[str, Any]:
     """Evaluate ``task``; returns ``{"world_seed", "fit_world_seed", "scores", "seconds",
     "phases"}``.
@@ -166,6 +177,7 @@ def _run_task(task: Task) -> dict[str, Any]:
         "fit_world_seed": track.fit_world_seed(task.world_seed),
         "scores": _significant(scores),
         "seconds": round(time.perf_counter() - started, 2),
+        "isolation": isolation(),
     }
 
 

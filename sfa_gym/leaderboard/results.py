@@ -246,6 +246,7 @@ def gathered_entry(result: dict[str, Any]) -> dict[str, Any]:
         "parts": mean_parts(result),
         "task_seconds": [t.get("seconds") for t in tasks],
         "task_phases": [t.get("phases") for t in tasks],
+        "isolation": sorted({str(t.get("isolation")) for t in tasks}),
         **{k: provenance.get(k) for k in _GATHERED_PROVENANCE},
         **({"fingerprints": fingerprints} if fingerprints else {}),
     }
@@ -259,12 +260,28 @@ def write_gathered(
     the number of entries.
 
     Raises:
-        ValueError: ``results`` holds no result file, or a result of the same track, size and
-            method twice (results of two runs mixed in one folder).
+        ValueError: ``results`` holds no result file, a result of the same track, size and
+            method twice (results of two runs mixed in one folder), or a result with a task
+            whose plug-ins ran unconfined (``isolation`` "process" or "in-process": no
+            bubblewrap, or :data:`~sfa_gym.leaderboard.evaluate.IN_PROCESS`), which the plug-in
+            could have altered. A task that does not record its isolation (written before tasks
+            did) is published; the entry says ``"None"``.
     """
     found = [r for r in load_results(results) if "_file" in r]
     if not found:
         raise ValueError(f"no leaderboard result files under {results}")
+    unconfined = [
+        r["_file"]
+        for r in found
+        if any(t.get("isolation") in ("process", "in-process") for t in r["tasks"])
+    ]
+    if unconfined:
+        raise ValueError(
+            f"{unconfined[0]} (and {len(unconfined) - 1} more) holds tasks whose plug-ins ran "
+            "unconfined (no bubblewrap, or SFA_GYM_PLUGINS_IN_PROCESS=1): a plug-in there can "
+            "read and rewrite what the evaluator can, so its results are not published; "
+            "install bubblewrap (scripts/setup.sh does) and run again"
+        )
     entries = sorted(
         (gathered_entry(r) for r in found), key=lambda e: (e["track"], e["quick"], e["method"])
     )
