@@ -90,6 +90,25 @@ def test_regenerate_fills_an_empty_table_from_its_file(tmp_path):
     assert check_pages([page], ROOT) == []
 
 
+def test_board_intervals_and_seconds_come_from_the_file():
+    from sfa_gym.report.formatters import board_seconds_table, board_table
+
+    record = {
+        "track": "t",
+        "track_version": 1,
+        "method": "m",
+        "score": {"mean": 2.0, "ci95": [1.5, 2.5], "higher_is_better": False},
+        "task_seconds": [10.0, 20.0],
+    }
+    files = [{"results": [record, {**record, "method": "n", "task_seconds": [None, 3.0]}]}]
+    assert "| `t` (1) | MAE % | **2.00** [1.50, 2.50] |" in board_table(
+        files, {"intervals": "1", "methods": "m"}
+    )
+    seconds = board_seconds_table(files, {}).splitlines()
+    assert seconds[2] == "| `t` | 15 | - |"  # the mean of a world seed; unrecorded: none
+    assert seconds[3] == "| whole board, min | 0 | 0 |"
+
+
 @pytest.mark.parametrize(
     ("spec", "message"),
     [

@@ -19,6 +19,7 @@ import numpy as np
 
 __all__ = [
     "board_parts_table",
+    "board_seconds_table",
     "board_table",
     "descent_bound_table",
     "equivariance_table",
@@ -64,7 +65,8 @@ def board_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str
     best of each row in bold (lowest MAE, highest success).
 
     Options: ``tracks=a,b`` and ``methods=a,b`` choose and order rows and columns (default:
-    all, as they come in the file).
+    all, as they come in the file); ``intervals=1`` adds each mean's 95 % t-interval across the
+    world seeds, ``[lo, hi]`` (as ``sfa-gym leaderboard table`` prints it).
     """
     records = _records(files, "board")
     tracks = _split(options.get("tracks")) or list(dict.fromkeys(r["track"] for r in records))
@@ -86,8 +88,37 @@ def board_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str
                 row.append("-")
             else:
                 text = f"{r['score']['mean']:.2f}"
-                row.append(f"**{text}**" if f"{best:.2f}" == text else text)
+                bold = f"**{text}**" if f"{best:.2f}" == text else text
+                interval = r["score"].get("ci95") if options.get("intervals") == "1" else None
+                row.append(
+                    bold if interval is None else f"{bold} [{interval[0]:.2f}, {interval[1]:.2f}]"
+                )
         lines.append(_row(row))
+    return "\n".join(lines)
+
+
+def board_seconds_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """The seconds a board's tasks took, from its file's ``task_seconds``: tracks as rows,
+    methods as columns, the mean seconds of a world seed's task (renders included where that
+    task rendered) and, in the last row, each method's whole board (every task, one after
+    the other). Options: ``tracks=a,b``, ``methods=a,b`` as for :func:`board_table`."""
+    records = _records(files, "board-seconds")
+    tracks = _split(options.get("tracks")) or list(dict.fromkeys(r["track"] for r in records))
+    methods = _split(options.get("methods")) or list(dict.fromkeys(r["method"] for r in records))
+    cells = {(r["track"], r["method"]): r["task_seconds"] for r in records}
+    lines = _head(["track: s per world seed", *methods])
+    total = dict.fromkeys(methods, 0.0)
+    for t in tracks:
+        row = [f"`{t}`"]
+        for m in methods:
+            seconds = cells.get((t, m))
+            if not seconds or None in seconds:
+                row.append("-")
+                continue
+            total[m] += sum(seconds)
+            row.append(f"{sum(seconds) / len(seconds):.0f}")
+        lines.append(_row(row))
+    lines.append(_row(["whole board, min", *(f"{total[m] / 60:.0f}" for m in methods)]))
     return "\n".join(lines)
 
 

@@ -64,6 +64,7 @@ GENERATORS: dict[str, Generator] = {
     "navigation": _navigation,
     "board": formatters.board_table,
     "board-parts": formatters.board_parts_table,
+    "board-seconds": formatters.board_seconds_table,
     "nav-sets": formatters.nav_sets_table,
     "descent-bound": formatters.descent_bound_table,
     "nav-steps": formatters.nav_steps_table,
@@ -74,8 +75,8 @@ GENERATORS: dict[str, Generator] = {
 }
 """Formatters by the name a marker gives: ``localization`` (a localization protocol's
 ``results.json``, :func:`sfa_gym.experiments.report.format_table`), ``navigation`` (the
-navigation protocol's ``results.json``), ``board`` and ``board-parts`` (the leaderboard's
-reference board), ``nav-sets`` (navigation studies' episode sets), ``descent-bound``,
+navigation protocol's ``results.json``), ``board``, ``board-parts`` and ``board-seconds``
+(the leaderboard's reference board), ``nav-sets`` (navigation studies' episode sets), ``descent-bound``,
 ``nav-steps``, ``outdoor-cost``, ``sfa-engine``, ``leaderboard-timings`` and
 ``equivariance`` (:mod:`sfa_gym.report.formatters`)."""
 
