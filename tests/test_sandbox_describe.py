@@ -157,3 +157,16 @@ def test_the_shipped_baselines_keep_their_labels_and_task_identities(tmp_path, k
         assert task_identity(track, True, 100, now, None) == task_identity(
             track, True, 100, before, None
         )
+
+
+def test_the_command_line_names_the_file_and_the_argument_and_runs_nothing(tmp_path, capsys):
+    from sfa_gym.cli.main import main
+
+    tracks, results = tmp_path / "tracks", tmp_path / "results"
+    _write_track(tracks, TINY)
+    argv = ["leaderboard", "run", "--method", str(BAND_MEANS), "--method-args", "n_bandz=4"]
+    argv += ["--track", "tiny", "--tracks", str(tracks), "--results", str(results)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"error: {BAND_MEANS}: unknown argument 'n_bandz'" in err
+    assert not results.exists()
