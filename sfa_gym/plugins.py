@@ -20,6 +20,9 @@ a worker process of its own (:mod:`sfa_gym.sandbox`) and returns a proxy
   ``transform`` 10 min, ``act`` 1 s, ...); past it the worker is killed and
   :class:`~sfa_gym.sandbox.PluginTimeout` names the plug-in, the call and the limit; a worker
   that dies raises :class:`~sfa_gym.sandbox.PluginCrashed` with its exit code;
+- a sweep plans its tasks (labels, task identities, the check of ``--method-args``) from what
+  the worker reports of the file's ``Args`` (:func:`~sfa_gym.sandbox.describe_plugin`): the
+  evaluator never imports the file, not even to read its arguments;
 - where bubblewrap (``bwrap``) works, the worker sees a read-only filesystem with only its
   scratch folder writable, the render cache hidden, no network and its own PID namespace;
   elsewhere it is a plain child process in a scratch folder (said once on stderr).
@@ -228,6 +231,58 @@ class Plugin:
         filled = self.parse(args)
         return {f.name: getattr(filled, f.name) for f in dataclasses.fields(self.args_type)}
 
+    def describe(
+        self, args: Mapping[str, Any] | None = None, *, make: bool = False
+    ) -> dict[str, Any]:
+        """What a sweep records of this plug-in with ``args``, in JSON types: ``kind``, ``name``,
+        ``path``, ``arguments`` (every field of ``Args``, the defaults filled in) and
+        ``defaults`` (the fields that have one). The worker process reports this for the
+        evaluator, which never imports the file (:func:`sfa_gym.sandbox.describe_plugin`).
+
+        Args:
+            make: a method is also made once (and dropped), so that the checks of its factory
+                run too: a worker does, where the factory's side effects stay in the worker.
+
+        Raises:
+            ValueError: see :meth:`parse`, or a value the factory refuses (the message names
+                the file). PluginError: a value that is not a JSON type, or what the factory
+                made does not follow the contract.
+        """
+        arguments = self.arguments(args)
+        if make and isinstance(self, MethodPlugin):
+            try:
+                self(**dict(args or {}))
+            except (TypeError, ValueError) as error:
+                if isinstance(error, PluginError) or str(self.path) in str(error):
+                    raise
+                raise ValueError(
+                    f"{self.path}: bad arguments {dict(args or {})!r}: {error}"
+                ) from None
+        defaults = {
+            a.name: a.default for a in self._defaults() if a.default is not dataclasses.MISSING
+        }
+        return {
+            "kind": self.kind,
+            "name": self.name,
+            "path": str(self.path),
+            "arguments": {
+                k: _json_value(v, f"{self.path}: argument {k}") for k, v in arguments.items()
+            },
+            "defaults": {
+                k: _json_value(v, f"{self.path}: default of {k}") for k, v in defaults.items()
+            },
+        }
+
+    def _defaults(self) -> list[Argument]:
+        """The fields of ``Args`` with their defaults (``MISSING``: none), without docstrings."""
+        out = []
+        for field in dataclasses.fields(self.args_type):
+            default = field.default
+            if default is dataclasses.MISSING and field.default_factory is not dataclasses.MISSING:
+                default = field.default_factory()
+            out.append(Argument(field.name, str(field.type), default, ""))
+        return out
+
     def fields(self) -> list[Argument]:
         """The fields of ``Args`` with their docstrings, read with the parser that gives the
         command line its help text."""
@@ -237,16 +292,7 @@ class Plugin:
             param.arg_name: " ".join((param.description or "").split())
             for param in docstring_parser.parse_from_object(self.args_type).params
         }
-        out = []
-        for field in dataclasses.fields(self.args_type):
-            if field.default is not dataclasses.MISSING:
-                default = field.default
-            elif field.default_factory is not dataclasses.MISSING:
-                default = field.default_factory()
-            else:
-                default = dataclasses.MISSING
-            out.append(Argument(field.name, str(field.type), default, docs.get(field.name, "")))
-        return out
+        return [dataclasses.replace(a, doc=docs.get(a.name, "")) for a in self._defaults()]
 
     def _check_made(self, made: Any, methods: tuple[str, ...], usage: str) -> None:
         wrong = [a for a in methods if not callable(getattr(made, a, None))]
@@ -314,6 +360,23 @@ class ControllerPlugin(Plugin):
         controller = self.make(rover, weights, **self.arguments(args))
         self._check_made(controller, ("reset", "act"), "act(obs, info)")
         return SensorsOnly(controller)
+
+
+def _json_value(value: Any, where: str) -> Any:
+    """``value`` in JSON types (tuples as lists, paths as strings), as a result file records it;
+    a PluginError naming ``where`` for a value that has none."""
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if isinstance(value, list | tuple):
+        return [_json_value(v, f"{where}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, dict) and all(isinstance(k, str) for k in value):
+        return {k: _json_value(v, f"{where}[{k!r}]") for k, v in value.items()}
+    raise PluginError(
+        f"{where} is {value!r}, a {type(value).__name__}: a result records only JSON types "
+        "(None, bool, int, float, str, lists, dicts with str keys, paths)"
+    )
 
 
 def _args_type(path: Path, module: ModuleType, kind: Kind) -> type:

@@ -11,7 +11,6 @@ several sittings: interrupt it (Ctrl-C, SIGTERM, even SIGKILL) and run the same 
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import sys
@@ -21,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from sfa_gym.leaderboard.backends import BACKENDS, Backend, TaskFailure, run_each
-from sfa_gym.leaderboard.evaluate import HIGHER_IS_BETTER, Task
+from sfa_gym.leaderboard.evaluate import HIGHER_IS_BETTER, Task, plugins_isolated
 from sfa_gym.leaderboard.results import (
     git_commit,
     make_result,
@@ -39,7 +38,10 @@ from sfa_gym.leaderboard.task_files import (
     write_task_file,
 )
 from sfa_gym.leaderboard.tracks import Track
-from sfa_gym.plugins import file_sha256, load_controller_plugin, load_method_plugin
+from sfa_gym.plugin_files import Kind
+from sfa_gym.plugins import file_sha256, load_plugin
+from sfa_gym.recording.cache import RunCache
+from sfa_gym.sandbox import Limits, describe_plugin
 
 __all__ = ["SweepError", "run_sweep"]
 
@@ -118,11 +120,12 @@ def run_sweep(
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
-    driver = None if controller is None else _describe_controller(tracks, *controller)
+    # the plug-ins' workers must not read the render cache or the results either
+    hidden = [RunCache(cache_dir).root, Path(results_dir)]
+    driver = None if controller is None else _describe_controller(tracks, *controller, hidden)
     described = []
     for path, args in methods:
-        factory = load_method_plugin(path)
-        method = _describe(factory, args, factory.arguments(args))
+        method = _describe("method", path, args, hidden)
         if driver is not None:
             method |= {"label": f"{method['label']}+{driver['label']}", "controller": driver}
         described.append(method)
@@ -283,7 +286,10 @@ def _check_labels(described: list[dict[str, Any]]) -> None:
 
 
 def _describe_controller(
-    tracks: Sequence[Track], path: str | os.PathLike[str], args: Mapping[str, Any]
+    tracks: Sequence[Track],
+    path: str | os.PathLike[str],
+    args: Mapping[str, Any],
+    hidden: list[Path],
 ) -> dict[str, Any]:
     """The provenance of a controller plug-in (checked, with its arguments), for the results."""
     others = [t.name for t in tracks if t.kind != "navigation"]
@@ -292,19 +298,26 @@ def _describe_controller(
             f"a controller drives the rover on navigation tracks only; {others} are not "
             "navigation tracks (choose the nav_* tracks)"
         )
-    factory = load_controller_plugin(path)
-    return _describe(factory, args, factory.arguments(args))
+    return _describe("controller", path, args, hidden)
 
 
-def _describe(factory: Any, args: Mapping[str, Any], filled: dict[str, Any]) -> dict[str, Any]:
+def _describe(
+    kind: Kind, source: str | os.PathLike[str], args: Mapping[str, Any], hidden: list[Path]
+) -> dict[str, Any]:
     """What a result records of a plug-in (a method or a controller): its name, label, file,
-    SHA-256, the arguments given and all of them (``filled``, the defaults filled in)."""
-    defaults = {f.name: f.default for f in dataclasses.fields(factory.args_type)}
+    SHA-256, the arguments given and all of them (the defaults filled in). The plug-in's
+    worker reads its ``Args`` (:func:`~sfa_gym.sandbox.describe_plugin`): the evaluator does
+    not import the file, unless plug-ins run in process (:data:`~sfa_gym.leaderboard.evaluate.
+    IN_PROCESS`). A refused argument raises here, before any task."""
+    if plugins_isolated():
+        report = describe_plugin(source, kind, args, limit=Limits().load, hidden=hidden)
+    else:
+        report = load_plugin(source, kind).describe(args)
     return {
-        "name": factory.name,
-        "label": method_label(factory.name, filled, defaults),
-        "path": str(factory.path),
-        "sha256": file_sha256(factory.path),
+        "name": report["name"],
+        "label": method_label(report["name"], report["arguments"], report["defaults"]),
+        "path": report["path"],
+        "sha256": file_sha256(report["path"]),
         "args": {k: args[k] for k in args},
-        "all_args": filled,
+        "all_args": report["arguments"],
     }

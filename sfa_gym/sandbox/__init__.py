@@ -5,6 +5,7 @@ and only numbers and JSON-type values come back. See the trust model in :mod:`sf
 
 from __future__ import annotations
 
+from sfa_gym.sandbox.describe import describe_plugin
 from sfa_gym.sandbox.process import PluginCrashed, PluginFailed, PluginTimeout, confinement
 from sfa_gym.sandbox.proxies import IsolatedController, IsolatedMethod, Limits
 
@@ -16,4 +17,5 @@ __all__ = [
     "PluginFailed",
     "PluginTimeout",
     "confinement",
+    "describe_plugin",
 ]

@@ -4,9 +4,11 @@ It reads messages (:mod:`sfa_gym.sandbox.wire`) from its standard input and answ
 file descriptor its standard output had at start; the plug-in's own prints go to standard error,
 so that they cannot forge an answer. The first message names the plug-in file, its kind and its
 arguments; the worker imports the file, makes the method or controller and answers with what the
-evaluator may know of it (name, capabilities, filled-in arguments). Every later message is one
-call (``fit``, ``transform``, ``act``, ...) with arrays of views or observations; the answer is
-``{"ok": value}`` or ``{"error": [type names], "message": text}``.
+evaluator may know of it (name, capabilities, filled-in arguments). A first message with
+``"describe": true`` asks only what the file declares (its ``Args`` with their defaults, the
+arguments filled in, checked): the evaluator plans a sweep from it without importing the file.
+Every later message is one call (``fit``, ``transform``, ``act``, ...) with arrays of views or
+observations; the answer is ``{"ok": value}`` or ``{"error": [type names], "message": text}``.
 
 The worker holds only what it was sent: views, panoramas, observations and the rover's own
 sensors. One BLAS thread, as the evaluator computes, so that scores do not depend on where a
@@ -94,6 +96,15 @@ def _load(request: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
     return made, about
 
 
+def _describe(request: dict[str, Any]) -> dict[str, Any]:
+    from pathlib import Path
+
+    from sfa_gym.plugins import load_plugin
+
+    plugin = load_plugin(Path(request["path"]), request["kind"])
+    return plugin.describe(request.get("args"), make=True)
+
+
 CALLS = {
     "method": ("fit", "fit_rotations", "transform", "transform_rotations"),
     "controller": ("reset", "act"),
@@ -144,7 +155,9 @@ def main() -> None:
         except EOFError:
             return
         try:
-            if made is None:
+            if made is None and request.get("describe"):
+                answer = {"ok": _describe(request)}
+            elif made is None:
                 kind = request["kind"]
                 made, about = _load(request)
                 answer: Any = {"ok": about}
