@@ -185,7 +185,7 @@ class IsolatedMethod(_Isolated):
     Args:
         source: a built-in name or a plug-in file (:func:`~sfa_gym.plugins.resolve_plugin`).
         args: keyword arguments of the plug-in's ``Args`` (JSON types), checked in the worker.
-        limits: the time limits (default :class:`Limits`).
+        limits: the time and memory limits (default :class:`Limits`).
         hidden: folders the worker must not read (the render cache, the results).
     """
 
