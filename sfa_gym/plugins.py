@@ -23,6 +23,9 @@ a worker process of its own (:mod:`sfa_gym.sandbox`) and returns a proxy
 - a sweep plans its tasks (labels, task identities, the check of ``--method-args``) from what
   the worker reports of the file's ``Args`` (:func:`~sfa_gym.sandbox.describe_plugin`): the
   evaluator never imports the file, not even to read its arguments;
+- the worker's address space has a memory limit (``Limits.memory_mb``, default three quarters
+  of the machine's memory); an allocation past it raises
+  :class:`~sfa_gym.sandbox.PluginOutOfMemory`, naming the plug-in and the limit;
 - where bubblewrap (``bwrap``) works, the worker sees a read-only filesystem with only its
   scratch folder writable, the render cache hidden, no network and its own PID namespace;
   elsewhere it is a plain child process in a scratch folder (said once on stderr).
@@ -438,7 +441,7 @@ def load_method(
         isolated: run the plug-in in a worker process of its own
             (:class:`~sfa_gym.sandbox.IsolatedMethod`: the trust model above; close it with
             ``close()``); False: import it into this process (trusted code only).
-        limits: the time limits of an isolated method (:class:`~sfa_gym.sandbox.Limits`).
+        limits: the time and memory limits of an isolated method (:class:`~sfa_gym.sandbox.Limits`).
         hidden: folders an isolated method must not read (the render cache, the results).
 
     Raises:

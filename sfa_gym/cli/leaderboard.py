@@ -51,7 +51,7 @@ class LeaderboardRun:
     address: str | None = None
     """ray: the cluster to join ("auto", "ray://head:10001"); default: start a local Ray"""
     num_cpus: int | None = None
-    """ray, local Ray only: CPUs it may use (default: all)"""
+    """ray, local Ray only: CPUs it may use, at least 1 (default: all)"""
     method_args: tuple[str, ...] = ()
     """arguments of the methods' Args, NAME=VALUE (e.g. n_bands=4), applied to every method"""
     controller: str | None = None
@@ -67,6 +67,13 @@ class LeaderboardRun:
     cache: Path | None = None
     """render cache folder (default: $SFA_GYM_CACHE or ~/.cache/sfa-gym/runs); on a cluster,
     a folder every node sees"""
+    time_limits: tuple[str, ...] = ()
+    """wall-clock limits of the calls into the plug-ins, NAME=SECONDS (e.g. fit=3600
+    transform=600; names: load, fit, transform, reset, act), over the tracks' time_limits, over
+    the defaults"""
+    memory_limit_mb: int | None = None
+    """memory limit of each plug-in's worker process, MiB (default: the track's
+    memory_limit_mb, else 3/4 of this machine's memory)"""
     rerun: bool = False
     """compute every task again; by default a task whose file under <results>/tasks holds its
     finished result (same track version, method file, arguments and size) is reused, so that
@@ -75,9 +82,18 @@ class LeaderboardRun:
     def run(self) -> int:
         import sys
 
+        from sfa_gym.leaderboard.backends import check_backend
         from sfa_gym.leaderboard.sweep import SweepError, run_sweep
         from sfa_gym.leaderboard.tracks import list_tracks
+        from sfa_gym.sandbox import check_memory_mb, check_time_limits
 
+        # every option checked before a track is read or a worker started
+        check_backend(self.backend, self.num_cpus)
+        time_limits = check_time_limits(
+            _parse_args(self.time_limits, "--time-limits"), "--time-limits"
+        )
+        if self.memory_limit_mb is not None:
+            check_memory_mb(self.memory_limit_mb, "--memory-limit-mb")
         available = {t.name: t for t in list_tracks(self.tracks)}
         if "all" in self.track:
             chosen = [
@@ -108,6 +124,8 @@ class LeaderboardRun:
                     if self.controller is None
                     else (self.controller, _parse_args(self.controller_args, "--controller-args")),
                     resume=not self.rerun,
+                    time_limits=time_limits,
+                    memory_limit_mb=self.memory_limit_mb,
                 )
         except SweepError as error:
             _print_results(error.written)

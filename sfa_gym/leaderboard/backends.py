@@ -18,7 +18,15 @@ from typing import Any, Literal
 
 from sfa_gym.leaderboard.evaluate import Task, run_task
 
-__all__ = ["BACKENDS", "RAY_RETRIES", "Backend", "TaskFailure", "run_each", "run_tasks"]
+__all__ = [
+    "BACKENDS",
+    "RAY_RETRIES",
+    "Backend",
+    "TaskFailure",
+    "check_backend",
+    "run_each",
+    "run_tasks",
+]
 
 Backend = Literal["local", "ray"]
 BACKENDS = ("local", "ray")
@@ -82,6 +90,24 @@ def _ray_failure(error: Exception) -> TaskFailure:
     )
 
 
+def check_backend(backend: str, num_cpus: int | None = None) -> None:
+    """Refuse an unknown backend or a ``num_cpus`` below 1 (a Ray with no CPU would wait for
+    one forever), before anything starts.
+
+    Raises:
+        ValueError: naming the value and what was expected.
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    if num_cpus is not None and (
+        isinstance(num_cpus, bool) or not isinstance(num_cpus, int) or num_cpus < 1
+    ):
+        raise ValueError(
+            f"--num-cpus must be an int >= 1 (a Ray without a CPU runs no task and waits "
+            f"forever), got {num_cpus!r}"
+        )
+
+
 def run_each(
     tasks: Sequence[Task],
     backend: Backend = "local",
@@ -100,11 +126,10 @@ def run_each(
         num_cpus: ray only, local Ray only: CPUs it may use (None: all).
 
     Raises:
-        ValueError: an unknown backend.
+        ValueError: an unknown backend, or ``num_cpus`` below 1.
         ImportError: ``ray`` without Ray installed (names the pip command).
     """
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    check_backend(backend, num_cpus)
     if backend == "local":
         for i, task in enumerate(tasks):
             try:

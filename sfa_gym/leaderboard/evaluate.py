@@ -27,7 +27,15 @@ from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
 from sfa_gym.sandbox import Limits
 
-__all__ = ["HIGHER_IS_BETTER", "IN_PROCESS", "Task", "isolation", "plugins_isolated", "run_task"]
+__all__ = [
+    "HIGHER_IS_BETTER",
+    "IN_PROCESS",
+    "Task",
+    "isolation",
+    "plugins_isolated",
+    "run_task",
+    "task_limits",
+]
 
 HIGHER_IS_BETTER = {"localization": False, "navigation": True}
 """Direction of the ``score`` of each track kind."""
@@ -47,8 +55,10 @@ class Task:
         controller_path: navigation tracks: a controller plug-in file that drives the rover
             instead of the track's gradient controller (None: the track's).
         controller_args: keyword arguments of the controller's ``Args`` (JSON types).
-        time_limits: seconds per kind of call into the plug-ins, over the defaults of
-            :class:`~sfa_gym.sandbox.Limits` (``{"fit": 3600}``).
+        time_limits: seconds per kind of call into the plug-ins (``{"fit": 3600}``), over
+            the track's ``time_limits``, over the defaults of :class:`~sfa_gym.sandbox.Limits`.
+        memory_limit_mb: the memory limit of each plug-in's worker, MiB (None: the track's
+            ``memory_limit_mb``, else the default of :class:`~sfa_gym.sandbox.Limits`).
     """
 
     track_path: str
@@ -60,6 +70,15 @@ class Task:
     controller_path: str | None = None
     controller_args: Mapping[str, Any] = field(default_factory=dict)
     time_limits: Mapping[str, float] = field(default_factory=dict)
+    memory_limit_mb: int | None = None
+
+
+def task_limits(track: Track, task: Task) -> Limits:
+    """The limits of the task's plug-ins: the task's own over the track's over the defaults."""
+    memory_mb = task.memory_limit_mb
+    if memory_mb is None:
+        memory_mb = track.memory_limit_mb
+    return Limits.of({**track.time_limits, **task.time_limits}, memory_mb)
 
 
 def _protocol_scores(
@@ -158,7 +177,7 @@ def _run_task(task: Task) -> dict[str, Any]:
     # The method runs in a worker process of its own, which cannot read the render cache (the
     # recordings hold the poses); it computes with one BLAS thread too.
     isolated = plugins_isolated()
-    limits = Limits.of(task.time_limits)
+    limits = task_limits(track, task)
     method = load_method(
         task.method_path, task.method_args, isolated=isolated, limits=limits, hidden=[cache.root]
     )

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sfa_gym.leaderboard.backends import BACKENDS, Backend, TaskFailure, run_each
+from sfa_gym.leaderboard.backends import Backend, TaskFailure, check_backend, run_each
 from sfa_gym.leaderboard.evaluate import HIGHER_IS_BETTER, Task, plugins_isolated
 from sfa_gym.leaderboard.results import (
     git_commit,
@@ -41,7 +41,7 @@ from sfa_gym.leaderboard.tracks import Track
 from sfa_gym.plugin_files import Kind
 from sfa_gym.plugins import file_sha256, load_plugin
 from sfa_gym.recording.cache import RunCache
-from sfa_gym.sandbox import Limits, describe_plugin
+from sfa_gym.sandbox import Limits, check_memory_mb, check_time_limits, describe_plugin
 
 __all__ = ["SweepError", "run_sweep"]
 
@@ -87,6 +87,8 @@ def run_sweep(
     controller: tuple[str | os.PathLike[str], Mapping[str, Any]] | None = None,
     resume: bool = True,
     verbose: bool = True,
+    time_limits: Mapping[str, float] | None = None,
+    memory_limit_mb: int | None = None,
 ) -> list[Path]:
     """Score every method on every track; write each task's file as it finishes and one result
     file per (track, method) once all its world seeds are done.
@@ -106,20 +108,27 @@ def run_sweep(
         resume: reuse the finished tasks of an earlier sweep (same identity, see
             :mod:`~sfa_gym.leaderboard.task_files`); False computes every task again.
         verbose: a line on stderr per finished task.
+        time_limits: seconds per kind of call into the plug-ins (``{"fit": 3600}``), over each
+            track's ``time_limits``, over the defaults (:class:`~sfa_gym.sandbox.Limits`).
+        memory_limit_mb: each plug-in worker's memory limit, MiB (None: each track's, else the
+            default).
 
     Returns:
         The result files written, in the order of ``tracks`` x ``methods``.
 
     Raises:
-        PluginError, ValueError: a method or controller file or its arguments are refused, two
+        PluginError, ValueError: a method or controller file or its arguments are refused, an
+            unknown backend, ``num_cpus`` below 1, a bad time or memory limit, two
             methods have the same label, or a controller is given for a track that is not a
             navigation track (before any task).
         OSError: the results folder cannot be written to (before any task).
         SweepError: some tasks failed (after every other task ran and was written).
         KeyboardInterrupt: interrupted; every finished task's file is kept.
     """
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    check_backend(backend, num_cpus)
+    limits = {"time_limits": check_time_limits(time_limits or {}, "--time-limits")}
+    if memory_limit_mb is not None:
+        limits["memory_limit_mb"] = check_memory_mb(memory_limit_mb, "--memory-limit-mb")
     # the plug-ins' workers must not read the render cache or the results either
     hidden = [RunCache(cache_dir).root, Path(results_dir)]
     driver = None if controller is None else _describe_controller(tracks, *controller, hidden)
@@ -136,7 +145,7 @@ def run_sweep(
     results = check_results_folder(results_dir)
     say = _printer(verbose)
 
-    planned = _plan(tracks, described, driver, results, quick, cache_dir)
+    planned = _plan(tracks, described, driver, results, quick, cache_dir, limits)
     finished: dict[int, dict[str, Any]] = {}
     todo = []
     for i, p in enumerate(planned):
@@ -202,8 +211,10 @@ def _plan(
     results: Path,
     quick: bool,
     cache_dir: str | os.PathLike[str] | None,
+    limits: dict[str, Any],
 ) -> list[_Planned]:
-    """The sweep's tasks, track by track, method by method, world seed by world seed."""
+    """The sweep's tasks, track by track, method by method, world seed by world seed;
+    ``limits`` are the :class:`~sfa_gym.leaderboard.evaluate.Task` fields of the run's limits."""
     cache = None if cache_dir is None else str(Path(cache_dir).resolve())
     planned = []
     for t, track in enumerate(tracks):
@@ -220,6 +231,7 @@ def _plan(
                     cache,
                     None if driver is None else driver["path"],
                     {} if driver is None else dict(driver["args"]),
+                    **limits,
                 )
                 planned.append(
                     _Planned(

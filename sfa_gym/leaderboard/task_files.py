@@ -75,9 +75,9 @@ def task_identity(
     ``all_args``)."""
     # the track as it decides this size's scores: its quick section matters only at the quick
     # size, and there only through the parameters and world seeds it gives
-    content = {
-        k: v for k, v in track.describe().items() if k not in ("description", "quick", "params")
-    }
+    # the limits bound what a plug-in may spend, not what it scores: they are left out
+    apart = ("description", "quick", "params", "time_limits", "memory_limit_mb")
+    content = {k: v for k, v in track.describe().items() if k not in apart}
     content["world_seeds"], content["params"] = track.sized(quick)
     identity = {
         "track": {

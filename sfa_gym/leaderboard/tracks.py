@@ -13,8 +13,15 @@ A track file (``tracks/<name>.json``) is a JSON object::
      "world_seeds": [100, 101, ...],  # scoring worlds; one task each; the interval is across them
      "seed": 7001,                    # headings, train/test selection, splits, episodes
      "params": {...},                 # the evaluation's settings (see PROTOCOLS)
-     "quick": {"world_seeds": 2, "params": {...}}}  # the reduced size: the first n world
+     "quick": {"world_seeds": 2, "params": {...}},  # the reduced size: the first n world
                                                     # seeds and parameter overrides
+     "time_limits": {"fit": 3600},    # optional: seconds per kind of call into a plug-in
+     "memory_limit_mb": 8192}         # optional: each plug-in worker's memory limit, MiB
+
+``time_limits`` (names: :data:`~sfa_gym.sandbox.TIME_LIMITS`) and ``memory_limit_mb`` override
+the defaults of :class:`~sfa_gym.sandbox.Limits` for the track's tasks (``sfa-gym leaderboard
+run --time-limits/--memory-limit-mb`` override them in turn). They bound what a plug-in may
+spend, not what it scores, so they are no part of a task's identity.
 
 The ``params`` of an evaluation scored by a protocol (:data:`PROTOCOLS`) are fields of that
 protocol's ``Config``: the track's settings are ``dataclasses.replace(Config(), world=world,
@@ -135,6 +142,8 @@ _FIELDS = (
     "params",
     "quick",
 )
+_OPTIONAL_FIELDS = ("time_limits", "memory_limit_mb")
+"""Fields a track file may leave out (``unseen_worlds`` adds ``fit_world_seeds``)."""
 
 
 class TrackError(ValueError):
@@ -162,6 +171,8 @@ class Track:
     params: Mapping[str, Any]
     quick: Mapping[str, Any]
     fit_world_seeds: tuple[int, ...] = ()
+    time_limits: Mapping[str, float] = dataclasses.field(default_factory=dict)
+    memory_limit_mb: int | None = None
     path: Path | None = None
 
     def sized(self, quick: bool) -> tuple[tuple[int, ...], dict[str, Any]]:
@@ -193,6 +204,9 @@ class Track:
     def describe(self) -> dict[str, Any]:
         """The track as its file holds it (JSON types), for results' provenance."""
         out = {k: v for k, v in dataclasses.asdict(self).items() if k != "path"}
+        for name in _OPTIONAL_FIELDS:  # as the file has them: left out when it leaves them out
+            if not out[name]:
+                del out[name]
         out["world_seeds"] = list(self.world_seeds)
         out["fit_world_seeds"] = list(self.fit_world_seeds)
         return out
@@ -319,9 +333,12 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
     for name in _FIELDS + optional:
         if name not in data:
             raise TrackError(f"{where}: missing field {name!r}")
-    unknown = sorted(set(data) - set(_FIELDS) - set(optional))
+    unknown = sorted(set(data) - set(_FIELDS) - set(optional) - set(_OPTIONAL_FIELDS))
     if unknown:
-        raise TrackError(f"{where}: unknown field {unknown[0]!r}; the fields are {list(_FIELDS)}")
+        raise TrackError(
+            f"{where}: unknown field {unknown[0]!r}; the fields are "
+            f"{[*_FIELDS, *optional, *_OPTIONAL_FIELDS]}"
+        )
     if evaluation not in EVALUATIONS:
         raise TrackError(f"{where}: evaluation {evaluation!r} is not one of {sorted(EVALUATIONS)}")
     if data["kind"] != EVALUATIONS[evaluation]:
@@ -371,6 +388,7 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
     if not isinstance(overrides, dict):
         raise TrackError(f"{where}: quick.params must be an object, got {overrides!r}")
     _check_protocol_params(where, data, params, overrides)
+    time_limits, memory_limit_mb = _limits(where, data)
     return Track(
         name=data["name"],
         track_version=track_version,
@@ -383,8 +401,25 @@ def track_from_dict(data: Any, where: str = "track", path: Path | None = None) -
         params=params,
         quick=quick,
         fit_world_seeds=fit_world_seeds,
+        time_limits=time_limits,
+        memory_limit_mb=memory_limit_mb,
         path=path,
     )
+
+
+def _limits(where: str, data: dict[str, Any]) -> tuple[dict[str, float], int | None]:
+    """The track's optional ``time_limits`` and ``memory_limit_mb``, checked (see
+    :func:`~sfa_gym.sandbox.check_time_limits`)."""
+    from sfa_gym.sandbox import check_memory_mb, check_time_limits
+
+    try:
+        time_limits = check_time_limits(data.get("time_limits", {}), f"{where}: time_limits")
+        memory = data.get("memory_limit_mb")
+        if memory is not None:
+            check_memory_mb(memory, f"{where}: memory_limit_mb")
+    except ValueError as error:
+        raise TrackError(str(error)) from None
+    return time_limits, memory
 
 
 def _check_controller(where: str, controller: Any) -> None:

@@ -76,8 +76,8 @@ GENERATORS: dict[str, Generator] = {
 """Formatters by the name a marker gives: ``localization`` (a localization protocol's
 ``results.json``, :func:`sfa_gym.experiments.report.format_table`), ``navigation`` (the
 navigation protocol's ``results.json``), ``board``, ``board-parts`` and ``board-seconds``
-(the leaderboard's reference board), ``nav-sets`` (navigation studies' episode sets), ``descent-bound``,
-``nav-steps``, ``outdoor-cost``, ``sfa-engine``, ``leaderboard-timings`` and
+(the leaderboard's reference board), ``nav-sets`` (navigation studies' episode sets),
+``descent-bound``, ``nav-steps``, ``outdoor-cost``, ``sfa-engine``, ``leaderboard-timings`` and
 ``equivariance`` (:mod:`sfa_gym.report.formatters`)."""
 
 _BLOCK = re.compile(

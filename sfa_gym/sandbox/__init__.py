@@ -1,21 +1,39 @@
 """Plug-ins out of the evaluator's process: each plug-in file runs in a worker process of its
 own (confined by bubblewrap where the machine allows it), every call into it has a time limit,
-and only numbers and JSON-type values come back. See the trust model in :mod:`sfa_gym.plugins`.
+its address space a memory limit, and only numbers and JSON-type values come back. See the
+trust model in :mod:`sfa_gym.plugins`.
 """
 
 from __future__ import annotations
 
 from sfa_gym.sandbox.describe import describe_plugin
-from sfa_gym.sandbox.process import PluginCrashed, PluginFailed, PluginTimeout, confinement
-from sfa_gym.sandbox.proxies import IsolatedController, IsolatedMethod, Limits
+from sfa_gym.sandbox.process import (
+    PluginCrashed,
+    PluginFailed,
+    PluginOutOfMemory,
+    PluginTimeout,
+    confinement,
+)
+from sfa_gym.sandbox.proxies import (
+    TIME_LIMITS,
+    IsolatedController,
+    IsolatedMethod,
+    Limits,
+    check_memory_mb,
+    check_time_limits,
+)
 
 __all__ = [
+    "TIME_LIMITS",
     "IsolatedController",
     "IsolatedMethod",
     "Limits",
     "PluginCrashed",
     "PluginFailed",
+    "PluginOutOfMemory",
     "PluginTimeout",
+    "check_memory_mb",
+    "check_time_limits",
     "confinement",
     "describe_plugin",
 ]

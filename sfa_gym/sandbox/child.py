@@ -132,8 +132,22 @@ def _error(error: BaseException) -> dict[str, Any]:
     return {"error": names, "message": str(error), "text": text, "traceback": trace}
 
 
+def _limit_memory(memory_mb: int) -> None:
+    """Cap this process's address space at ``memory_mb`` MiB (or the hard limit it already has,
+    if lower)."""
+    import resource
+
+    wanted = memory_mb * 2**20
+    _, hard = resource.getrlimit(resource.RLIMIT_AS)
+    if hard != resource.RLIM_INFINITY:
+        wanted = min(wanted, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (wanted, wanted))
+
+
 def main() -> None:
     """Serve one plug-in until the evaluator closes the pipe."""
+    if len(sys.argv) > 1:
+        _limit_memory(int(sys.argv[1]))
     # answers go on a private copy of stdout; the plug-in's prints go to stderr
     answers = os.fdopen(os.dup(1), "wb", buffering=0)
     os.dup2(2, 1)

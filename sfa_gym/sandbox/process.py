@@ -25,7 +25,14 @@ from typing import Any
 
 from sfa_gym.sandbox.wire import WireError, decode, encode
 
-__all__ = ["PluginCrashed", "PluginFailed", "PluginTimeout", "Worker", "confinement"]
+__all__ = [
+    "PluginCrashed",
+    "PluginFailed",
+    "PluginOutOfMemory",
+    "PluginTimeout",
+    "Worker",
+    "confinement",
+]
 
 
 class PluginTimeout(TimeoutError):
@@ -39,6 +46,11 @@ class PluginCrashed(RuntimeError):
 class PluginFailed(RuntimeError):
     """A plug-in raised an exception of a type the evaluator does not rebuild (the message
     names the type)."""
+
+
+class PluginOutOfMemory(MemoryError):
+    """A plug-in ran out of its worker's memory limit (the message names the plug-in, the call
+    and the limit); the evaluator's own memory is untouched."""
 
 
 # Exceptions raised in a worker that are raised again in the evaluator with their own type (so a
@@ -121,8 +133,10 @@ def confinement() -> str | None:
     return None
 
 
-def _command(scratch: Path, hidden: Sequence[Path]) -> list[str]:
+def _command(scratch: Path, hidden: Sequence[Path], memory_mb: int | None) -> list[str]:
     command = [sys.executable, "-m", "sfa_gym.sandbox.child"]
+    if memory_mb is not None:
+        command.append(str(memory_mb))
     bwrap = confinement()
     if bwrap is None:
         return command
@@ -140,12 +154,20 @@ class Worker:
     Args:
         label: how messages name the plug-in (its file).
         hidden: folders the worker must not read (confined workers only).
+        memory_mb: the worker's memory limit, MiB (its address space, set before the plug-in
+            is imported); None: no limit.
     """
 
-    def __init__(self, label: str, hidden: Sequence[str | os.PathLike[str]] = ()) -> None:
+    def __init__(
+        self,
+        label: str,
+        hidden: Sequence[str | os.PathLike[str]] = (),
+        memory_mb: int | None = None,
+    ) -> None:
         import sfa_gym
 
         self.label = label
+        self.memory_mb = memory_mb
         self.scratch = Path(tempfile.mkdtemp(prefix="sfa-gym-plugin-"))
         package_parent = str(Path(sfa_gym.__file__).resolve().parent.parent)
         path = os.environ.get("PYTHONPATH")
@@ -156,7 +178,7 @@ class Worker:
             "TMPDIR": str(self.scratch),
             "HOME": str(self.scratch),
         }
-        command = _command(self.scratch, [Path(h).resolve() for h in hidden])
+        command = _command(self.scratch, [Path(h).resolve() for h in hidden], memory_mb)
         self.process: subprocess.Popen[bytes] | None = subprocess.Popen(
             command,
             stdin=subprocess.PIPE,
@@ -196,11 +218,20 @@ class Worker:
                 pass
             code = self.stop()
             how = f"died with exit code {code}" if code else f"sent a malformed answer ({error})"
+            if code and self.memory_mb is not None:  # native code may abort when refused memory
+                how += f" (its memory limit is {self.memory_mb} MiB)"
             raise PluginCrashed(f"the plug-in {self.label}'s worker {how} during {what}") from None
         if not isinstance(answer, dict) or not ({"ok"} == set(answer) or "error" in answer):
             self.stop()
             raise PluginCrashed(f"the plug-in {self.label} sent a malformed answer to {what}")
         if "error" in answer:
+            names = answer["error"] if isinstance(answer["error"], list) else []
+            if "MemoryError" in names and self.memory_mb is not None:
+                raise PluginOutOfMemory(
+                    f"the plug-in {self.label} ran out of its memory limit of {self.memory_mb} "
+                    f"MiB in {what} ({answer.get('text')}); raise it with --memory-limit-mb "
+                    "or the track's memory_limit_mb"
+                ) from None
             raise _rebuilt(answer, self.label, what)
         return answer["ok"]
 

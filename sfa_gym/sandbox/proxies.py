@@ -22,13 +22,63 @@ from sfa_gym.capabilities import Capabilities
 from sfa_gym.plugin_files import PluginError, resolve_plugin
 from sfa_gym.sandbox.process import Worker
 
-__all__ = ["IsolatedController", "IsolatedMethod", "Limits"]
+__all__ = [
+    "TIME_LIMITS",
+    "IsolatedController",
+    "IsolatedMethod",
+    "Limits",
+    "check_memory_mb",
+    "check_time_limits",
+    "default_memory_mb",
+]
+
+
+def default_memory_mb() -> int:
+    """Three quarters of this machine's physical memory, MiB: the default memory limit of a
+    worker (room for the evaluator and the system beside one runaway plug-in)."""
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") * 3 // 4 // 2**20
+
+
+TIME_LIMITS = ("load", "fit", "transform", "reset", "act")
+"""The kinds of call that have a time limit (fields of :class:`Limits`, seconds)."""
+
+
+def check_time_limits(seconds: Any, where: str = "time limits") -> dict[str, float]:
+    """``seconds`` (``{"fit": 60}``) checked: an object whose keys are :data:`TIME_LIMITS` and
+    whose values are positive numbers.
+
+    Raises:
+        ValueError: the message starts with ``where`` and names the bad key or value.
+    """
+    if not isinstance(seconds, Mapping):
+        raise ValueError(f"{where} must be an object of seconds per kind of call, got {seconds!r}")
+    for name, value in seconds.items():
+        if name not in TIME_LIMITS:
+            raise ValueError(f"{where}: no time limit named {name!r}; the limits are {TIME_LIMITS}")
+        if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < 1e9:
+            raise ValueError(
+                f"{where}: time limit {name} must be a positive number of seconds (below 1e9), "
+                f"got {value!r}"
+            )
+    return dict(seconds)
+
+
+def check_memory_mb(value: Any, where: str = "memory limit") -> int:
+    """``value`` checked as a memory limit: a positive int of MiB.
+
+    Raises:
+        ValueError: the message starts with ``where`` and names the value.
+    """
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"{where} must be a positive int of MiB, got {value!r}")
+    return value
 
 
 @dataclass(frozen=True)
 class Limits:
-    """Wall-clock limit of each kind of call into a plug-in, seconds (generous: a limit stops a
-    plug-in that hangs, it does not rank fast ones)."""
+    """What a plug-in's worker may spend: a wall-clock limit of each kind of call, seconds, and
+    a memory limit (generous: a limit stops a plug-in that hangs or runs away, it does not rank
+    fast or frugal ones)."""
 
     load: float = 300.0
     """importing the file and making the method or controller"""
@@ -40,29 +90,28 @@ class Limits:
     """a controller's ``reset``"""
     act: float = 1.0
     """one ``act`` of a controller"""
+    memory_mb: int = dataclasses.field(default_factory=default_memory_mb)
+    """the worker's address space, MiB (``RLIMIT_AS``, set before the plug-in is imported;
+    default: :func:`default_memory_mb`); numpy with OpenBLAS reserves a few hundred MiB of it
+    before a plug-in allocates anything"""
 
     @classmethod
-    def of(cls, seconds: Mapping[str, float] | None) -> Limits:
-        """The defaults with ``seconds`` (``{"fit": 60}``) applied.
+    def of(cls, seconds: Mapping[str, float] | None, memory_mb: int | None = None) -> Limits:
+        """The defaults with ``seconds`` (``{"fit": 60}``) and ``memory_mb`` (None: the
+        default) applied.
 
         Raises:
             ValueError: a key that is not a kind of call (the message lists them), or a limit
                 that is not a positive number.
         """
-        seconds = dict(seconds or {})
-        known = [field.name for field in dataclasses.fields(cls)]
-        unknown = sorted(set(seconds) - set(known))
-        if unknown:
-            raise ValueError(f"no time limit named {unknown}; the limits are {known}")
-        return cls(**seconds)
+        given = check_time_limits(seconds or {})
+        if memory_mb is None:
+            return cls(**given)
+        return cls(**given, memory_mb=memory_mb)
 
     def __post_init__(self) -> None:
-        for field in dataclasses.fields(self):
-            value = getattr(self, field.name)
-            if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
-                raise ValueError(
-                    f"time limit {field.name} must be a positive number of seconds, got {value!r}"
-                )
+        check_time_limits({name: getattr(self, name) for name in TIME_LIMITS})
+        check_memory_mb(self.memory_mb, "memory limit memory_mb")
 
 
 class _Isolated:
@@ -80,7 +129,7 @@ class _Isolated:
     ) -> None:
         self.path = resolve_plugin(source, self.kind)  # type: ignore[arg-type]
         self.limits = limits or Limits()
-        self._worker = Worker(str(self.path), hidden)
+        self._worker = Worker(str(self.path), hidden, self.limits.memory_mb)
         request = {"path": str(self.path), "kind": self.kind, "args": dict(args or {}), **loading}
         try:
             about = self._worker.call(request, self.limits.load, "loading")
@@ -136,7 +185,7 @@ class IsolatedMethod(_Isolated):
     Args:
         source: a built-in name or a plug-in file (:func:`~sfa_gym.plugins.resolve_plugin`).
         args: keyword arguments of the plug-in's ``Args`` (JSON types), checked in the worker.
-        limits: the time limits (default :class:`Limits`).
+        limits: the time and memory limits (default :class:`Limits`).
         hidden: folders the worker must not read (the render cache, the results).
     """
 
