@@ -295,3 +295,23 @@ def test_a_task_records_how_its_plug_ins_ran(monkeypatch):
     assert isolation() == ("bwrap" if confinement() is not None else "process")
     monkeypatch.setenv(IN_PROCESS, "1")
     assert isolation() == "in-process"
+
+
+def test_a_result_edited_consistently_after_it_was_written_is_refused(tmp_path, capsys):
+    from sfa_gym.leaderboard.results import write_result
+
+    honest = tmp_path / "few_labels" / "honest.quick.json"
+    write_result(honest, _result("honest"))
+    stored = json.loads(honest.read_text())
+    assert len(stored["content_sha256"]) == 64
+    # a forger who rewrites a seed's score and the summary to match: the summary checks pass,
+    # the content hash does not
+    forged = {**stored, "method": {"label": "forged"}}
+    forged["tasks"] = [{**t, "scores": {"score": 0.5}} for t in stored["tasks"]]
+    forged["score"] = summarize([0.5, 0.5], higher_is_better=False)
+    path = _write(tmp_path, forged)
+    status, out, err = _table(tmp_path, capsys)
+    assert status == 0
+    assert _row(out, "honest") == "| honest | yours | 3.50 [0.32, 6.68] |"
+    assert "| forged |" not in out
+    assert f"{path}: its content was changed after it was written" in err

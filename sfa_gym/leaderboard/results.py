@@ -52,7 +52,13 @@ import numpy as np
 
 import sfa_gym
 from sfa_gym.files import write_json_atomic
-from sfa_gym.leaderboard.verify import ROUND_OFF, ResultError, check_result, summarize
+from sfa_gym.leaderboard.verify import (
+    ROUND_OFF,
+    ResultError,
+    check_result,
+    content_sha256,
+    summarize,
+)
 
 __all__ = [
     "FORMAT",
@@ -156,9 +162,9 @@ def make_result(
 
 
 def write_result(path: Path, result: dict[str, Any]) -> None:
-    """Write ``result`` atomically (strict JSON)."""
+    """Write ``result`` atomically (strict JSON), with its :func:`content_sha256`."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(path, result)
+    write_json_atomic(path, {**result, "content_sha256": content_sha256(result)})
 
 
 def reference_folder() -> Path:
@@ -246,6 +252,7 @@ def gathered_entry(result: dict[str, Any]) -> dict[str, Any]:
         "parts": mean_parts(result),
         "task_seconds": [t.get("seconds") for t in tasks],
         "task_phases": [t.get("phases") for t in tasks],
+        "result_sha256": result.get("content_sha256"),
         "isolation": sorted({str(t.get("isolation")) for t in tasks}),
         **{k: provenance.get(k) for k in _GATHERED_PROVENANCE},
         **({"fingerprints": fingerprints} if fingerprints else {}),

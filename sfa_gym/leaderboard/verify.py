@@ -9,13 +9,15 @@ Reading files, and a file's place against its content, are
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-__all__ = ["ROUND_OFF", "ResultError", "check_result", "summarize"]
+__all__ = ["ROUND_OFF", "ResultError", "check_result", "content_sha256", "summarize"]
 
 ROUND_OFF = 1e-6
 """The relative difference allowed between a stored summary and the one recomputed from the
@@ -95,6 +97,16 @@ def _close(stored: Any, fresh: Any) -> bool:
     return number and math.isclose(stored, fresh, rel_tol=ROUND_OFF, abs_tol=ROUND_OFF)
 
 
+def content_sha256(result: dict[str, Any]) -> str:
+    """The SHA-256 of a result's content (canonical JSON, without ``content_sha256`` itself and
+    the keys the loader adds, ``_source`` and ``_file``): an edit after the file was written
+    changes it."""
+    content = {k: v for k, v in result.items() if k != "content_sha256" and not k.startswith("_")}
+    # NaN hashes as NaN; the field checks refuse it with its place named
+    text = json.dumps(content, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 def check_result(result: dict[str, Any], where: str) -> dict[str, Any]:
     """``result`` (a result file's content or a gathered entry's, :func:`_from_gathered`)
     checked field by field, its score's mean, interval, ``n`` and ``std`` recomputed from its
@@ -105,6 +117,12 @@ def check_result(result: dict[str, Any], where: str) -> dict[str, Any]:
             mean, interval or ``n`` differ from the recomputed ones beyond :data:`ROUND_OFF`
             (both named, with ``where``).
     """
+    recorded, actual = result.get("content_sha256"), content_sha256(result)
+    if recorded is not None and recorded != actual:
+        raise ResultError(
+            f"{where}: its content was changed after it was written (content_sha256 "
+            f"{str(recorded)[:16]}... does not match the content's {actual[:16]}...)"
+        )
     _get(where, result, "track.name", "text")
     _get(where, result, "track.quick", "bool")
     if _get(where, result, "track.track_version", "int") < 1:
