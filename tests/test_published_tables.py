@@ -104,6 +104,13 @@ def test_board_intervals_and_seconds_come_from_the_file():
     assert "| `t` (1) | MAE % | **2.00** [1.50, 2.50] |" in board_table(
         files, {"intervals": "1", "methods": "m"}
     )
+    from sfa_gym.report.formatters import quick_vs_full_table
+
+    rows = [{"track": "t", "kendall_tau": 0.8, "quick_order": ["a", "b"], "full_order": ["b", "a"]}]
+    assert (
+        quick_vs_full_table([{"tracks": rows}], {}).splitlines()[2]
+        == "| `t` | 0.80 | a > b | b > a |"
+    )
     seconds = board_seconds_table(files, {}).splitlines()
     assert seconds[2] == "| `t` | 15 | - |"  # the mean of a world seed; unrecorded: none
     assert seconds[3] == "| whole board, min | 0 | 0 |"

@@ -27,6 +27,7 @@ __all__ = [
     "nav_sets_table",
     "nav_steps_table",
     "outdoor_cost_table",
+    "quick_vs_full_table",
     "sfa_engine_table",
 ]
 
@@ -94,6 +95,19 @@ def board_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str
                     bold if interval is None else f"{bold} [{interval[0]:.2f}, {interval[1]:.2f}]"
                 )
         lines.append(_row(row))
+    return "\n".join(lines)
+
+
+def quick_vs_full_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Per track, Kendall's tau between the quick and the full board's method orders and both
+    orders (``studies/quick_vs_full.py``'s file)."""
+    lines = _head(["track", "Kendall tau", "quick order (best first)", "full order"])
+    for row in _one_with(files, "tracks", "quick-vs-full"):
+        cells = [
+            f"{row['kendall_tau']:.2f}",
+            *(" > ".join(row[k]) for k in ("quick_order", "full_order")),
+        ]
+        lines.append(_row([f"`{row['track']}`", *cells]))
     return "\n".join(lines)
 
 

@@ -65,6 +65,7 @@ GENERATORS: dict[str, Generator] = {
     "board": formatters.board_table,
     "board-parts": formatters.board_parts_table,
     "board-seconds": formatters.board_seconds_table,
+    "quick-vs-full": formatters.quick_vs_full_table,
     "nav-sets": formatters.nav_sets_table,
     "descent-bound": formatters.descent_bound_table,
     "nav-steps": formatters.nav_steps_table,
@@ -77,7 +78,8 @@ GENERATORS: dict[str, Generator] = {
 ``results.json``, :func:`sfa_gym.experiments.report.format_table`), ``navigation`` (the
 navigation protocol's ``results.json``), ``board``, ``board-parts`` and ``board-seconds``
 (the leaderboard's reference board), ``nav-sets`` (navigation studies' episode sets),
-``descent-bound``, ``nav-steps``, ``outdoor-cost``, ``sfa-engine``, ``leaderboard-timings`` and
+``quick-vs-full`` (the quick board's ranks against the full one's), ``descent-bound``,
+``nav-steps``, ``outdoor-cost``, ``sfa-engine``, ``leaderboard-timings`` and
 ``equivariance`` (:mod:`sfa_gym.report.formatters`)."""
 
 _BLOCK = re.compile(
