@@ -232,3 +232,30 @@ def test_a_leaderboard_task_runs_its_method_isolated_with_its_time_limits(tmp_pa
         run_task(Task(track, str(slow), {}, 100, cache_dir=cache, time_limits={"fit": 2}))
     with pytest.raises(ValueError, match="no time limit named 'fitt'"):
         run_task(Task(track, str(BAND_MEANS), {}, 100, cache_dir=cache, time_limits={"fitt": 1}))
+
+
+@pytest.mark.parametrize(
+    ("features", "message"),
+    [
+        ("np.ones((3, len(views)))", r"must have shape \(6, k\) with k >= 1, got \(3, 6\)"),
+        ("np.ones((len(views) - 1, 3))", r"must have shape \(6, k\) with k >= 1, got \(5, 3\)"),
+        ("np.ones(len(views))", r"must have shape \(6, k\) with k >= 1, got \(6,\)"),
+        ("np.full((len(views), 3), np.nan)", "non-finite features"),
+        ("np.full((len(views), 3), 1e300)", "magnitude 1e\\+300; expected at most 1e\\+12"),
+        (
+            "np.ones((len(views), 3)) * 1j",
+            "must be an array of real numbers, got an array of complex",
+        ),
+    ],
+)
+def test_wrong_features_are_refused_naming_the_plugin(tmp_path, features, message):
+    text = f"""
+    def look(self):
+        return 0.0
+    def transform(self, views):
+        return {features}
+"""
+    with load_method(_plugin(tmp_path, text), {}) as isolated:
+        isolated.fit(_views())
+        with pytest.raises(PluginError, match=f"hostile: transform\\(views\\).*{message}"):
+            isolated.transform(_views())

@@ -175,6 +175,30 @@ def _numbers(value: Any, who: str, what: str) -> NDArray[Any]:
     return value
 
 
+FEATURE_BOUND = 1e12
+"""The largest magnitude a feature may have: far above any real feature, far below where sums of
+squares over a field overflow or lose every digit."""
+
+
+def _features(value: Any, shape: tuple[int, ...], who: str, what: str) -> NDArray[Any]:
+    """``value`` as features whose leading dimensions are ``shape`` (plus one feature axis),
+    finite and within :data:`FEATURE_BOUND`, or a PluginError naming ``who`` and ``what``."""
+    found = _numbers(value, who, what)
+    if found.ndim != len(shape) + 1 or found.shape[: len(shape)] != shape or found.shape[-1] < 1:
+        expected = ", ".join(map(str, shape))
+        raise PluginError(
+            f"{who}: {what} must have shape ({expected}, k) with k >= 1, got {found.shape}"
+        )
+    if found.dtype.kind == "f" and not np.all(np.isfinite(found)):
+        raise PluginError(f"{who}: {what} returned non-finite features (NaN or infinity)")
+    if found.size and float(np.max(np.abs(found))) > FEATURE_BOUND:
+        raise PluginError(
+            f"{who}: {what} returned a feature of magnitude {float(np.max(np.abs(found))):.3g}; "
+            f"expected at most {FEATURE_BOUND:g}"
+        )
+    return found
+
+
 class IsolatedMethod(_Isolated):
     """A feature method (the plug-in contract of :mod:`sfa_gym.plugins`) running in its own
     worker process: ``name``, ``capabilities``, ``rotation`` (methods that fit on rotations
@@ -230,14 +254,15 @@ class IsolatedMethod(_Isolated):
         return self._fitted("fit_rotations", np.asarray(panoramas))
 
     def transform(self, views: ArrayLike) -> NDArray[Any]:
-        found = self._call("transform", self.limits.transform, np.asarray(views))
-        return _numbers(found, self.name, "transform(views)")
+        views = np.asarray(views)
+        found = self._call("transform", self.limits.transform, views)
+        return _features(found, (len(views),), self.name, "transform(views)")
 
     def transform_rotations(self, panoramas: ArrayLike, step: int) -> NDArray[Any]:
-        found = self._call(
-            "transform_rotations", self.limits.transform, np.asarray(panoramas), int(step)
-        )
-        return _numbers(found, self.name, "transform_rotations(panoramas, step)")
+        panoramas = np.asarray(panoramas)
+        found = self._call("transform_rotations", self.limits.transform, panoramas, int(step))
+        shape = (len(panoramas), panoramas.shape[2] // int(step))
+        return _features(found, shape, self.name, "transform_rotations(panoramas, step)")
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         return dict(self._params)
