@@ -113,7 +113,7 @@ def test_board_intervals_and_seconds_come_from_the_file():
     )
     seconds = board_seconds_table(files, {}).splitlines()
     assert seconds[2] == "| `t` | 15 | - |"  # the mean of a world seed; unrecorded: none
-    assert seconds[3] == "| whole board, min | 0 | 0 |"
+    assert seconds[3] == "| these tracks, min | 0 | 0 |"
 
 
 @pytest.mark.parametrize(

@@ -132,7 +132,7 @@ def board_seconds_table(files: Sequence[dict[str, Any]], options: dict[str, str]
             total[m] += sum(seconds)
             row.append(f"{sum(seconds) / len(seconds):.0f}")
         lines.append(_row(row))
-    lines.append(_row(["whole board, min", *(f"{total[m] / 60:.0f}" for m in methods)]))
+    lines.append(_row(["these tracks, min", *(f"{total[m] / 60:.0f}" for m in methods)]))
     return "\n".join(lines)
 
 
