@@ -33,6 +33,19 @@ def test_track_params_are_the_protocol_config():
         track_from_dict({**data, "params": {**data["params"], "train_headings": "north"}})
 
 
+def test_a_non_navigation_env_or_negative_rendered_episodes_are_refused(tmp_path):
+    from sfa_gym.cli.main import main
+    from sfa_gym.experiments.navigation import NavigationExperiment
+
+    with pytest.raises(ValueError, match="'sfa_gym/OmniRover-v0' is not a navigation env; "):
+        dataclasses.replace(navigation.Config(), env_id="sfa_gym/OmniRover-v0").validate()
+    with pytest.raises(ValueError, match="rendered_episodes must be >= 0, got -1"):
+        NavigationExperiment(rendered_episodes=-1).validate()
+    out = tmp_path / "out"
+    assert main(["navigate", "--env", "sfa_gym/OmniRover-v0", "--out", str(out)]) == 2
+    assert not out.exists()  # refused before any folder is made
+
+
 def test_rover_fits_is_the_rule_reset_checks():
     import gymnasium as gym
 

@@ -59,7 +59,8 @@ class NavigationExperiment(protocol.Config):
         """Raise ValueError naming the first bad setting."""
         super().validate()
         check_world_seed("world_seed", self.world_seed)
-        check_int("rendered_episodes", self.rendered_episodes)
+        if check_int("rendered_episodes", self.rendered_episodes) < 0:
+            raise ValueError(f"rendered_episodes must be >= 0, got {self.rendered_episodes}")
         unknown = sorted(set(self.controllers) - set(CONTROLLERS))
         if unknown or not self.controllers:
             raise ValueError(f"controllers must be among {list(CONTROLLERS)}, got {unknown}")

@@ -106,7 +106,7 @@ class Config:
 
     def validate(self) -> None:
         """Raise ValueError naming the first bad setting."""
-        check_env_id("env_id", self.env_id)
+        _check_navigation_env("env_id", self.env_id)
         check_positive_int("train_grid", self.train_grid)
         if self.train_grid < 4:
             raise ValueError(f"train_grid must be at least 4, got {self.train_grid}")
@@ -134,6 +134,28 @@ class Config:
         import gymnasium as gym
 
         return gym.make(self.env_id, world_seed=world_seed, **kwargs)
+
+
+def _check_navigation_env(name: str, env_id: Any) -> None:
+    """ValueError naming ``name`` unless ``env_id`` is a registered navigation env (its entry
+    point an :class:`~sfa_gym.navigation.env.OmniRoverNavEnv`)."""
+    import gymnasium as gym
+    from gymnasium.envs.registration import load_env_creator
+
+    from sfa_gym.navigation.env import OmniRoverNavEnv
+
+    check_env_id(name, env_id)
+
+    def navigates(spec: Any) -> bool:
+        made = spec.entry_point
+        made = load_env_creator(made) if isinstance(made, str) else made
+        return isinstance(made, type) and issubclass(made, OmniRoverNavEnv)
+
+    if not navigates(gym.spec(env_id)):
+        ours = sorted(
+            i for i, s in gym.registry.items() if i.startswith("sfa_gym/") and navigates(s)
+        )
+        raise ValueError(f"{name} {env_id!r} is not a navigation env; expected one of {ours}")
 
 
 def _request(nav: Any, driver: Any, seed: int) -> Any:
