@@ -592,3 +592,13 @@ def test_navigation_task_in_the_obstacle_world_reuses_the_renders(tmp_path):
     assert second["phases"]["render"] < first["phases"]["render"] / 4
     assert second["phases"]["episodes"] > 0
     assert second["scores"]["training_positions"] == scores["training_positions"]
+
+
+def test_an_empty_track_folder_is_refused(tmp_path, capsys):
+    from sfa_gym.cli.main import main
+
+    (tmp_path / "tracks").mkdir()
+    args = ["leaderboard", "run", "--method", "band_means", "--tracks", str(tmp_path / "tracks")]
+    assert main([*args, "--results", str(tmp_path / "results")]) == 2
+    assert "no track file in" in capsys.readouterr().err
+    assert not (tmp_path / "results").exists()

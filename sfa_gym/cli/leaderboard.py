@@ -107,6 +107,10 @@ class LeaderboardRun:
                     f"{sorted(available)} (or all)"
                 )
             chosen = [available[name] for name in self.track]
+        if not chosen:
+            folder = self.tracks if self.tracks is not None else "the default track folder"
+            kind = "navigation track" if self.controller is not None else "track file"
+            raise ValueError(f"no {kind} in {folder}: nothing to score")
         args = _parse_args(self.method_args)
         stopped: list[int] = []
         try:
