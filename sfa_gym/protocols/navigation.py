@@ -235,10 +235,39 @@ def fit_features(
     return fitted, averages, weights
 
 
+PER_ROTATION_WARNING = 100_000
+"""Views a field may ask a method to transform one by one before :func:`_field_features` warns
+(a method without ``rotation_invariant``, ``transform_rotations`` or ``rotation_averaged``)."""
+
+
+def _warn_per_rotation(model: Any, n_panoramas: int, width: int) -> None:
+    """Warn, with the number of views, when ``model`` will transform every column's rotation of
+    each of ``n_panoramas`` field nodes: minutes per field for a slow ``transform``."""
+    import warnings
+
+    from sfa_gym.capabilities import get_capabilities
+
+    found = get_capabilities(model)
+    if found.rotation_invariant or found.transform_rotations or found.rotation_averaged:
+        return
+    views = n_panoramas * width
+    if views > PER_ROTATION_WARNING:
+        name = getattr(model, "name", type(model).__name__)
+        warnings.warn(
+            f"{name} declares no rotation capability, so its feature field transforms every "
+            f"rotation of each node: {n_panoramas} nodes x {width} columns = {views:,} views. "
+            "Declare rotation_invariant (column statistics) or transform_rotations (see "
+            "docs/plugins.md, 'Rotations and speed') if the method allows it",
+            stacklevel=3,
+        )
+
+
 def _field_features(model: Any, panoramas: Any, rows: NDArray[np.intp]) -> NDArray[np.float64]:
     """Rotation-averaged features (every column) of ``panoramas[rows]``: ``(len(rows), k)``,
     read and transformed ``FIELD_BATCH`` panoramas at a time."""
     from sfa_gym.features import rotation_averaged_features
+
+    _warn_per_rotation(model, len(rows), int(panoramas.shape[2]))
 
     parts = [
         rotation_averaged_features(model, np.asarray(panoramas[rows[s : s + FIELD_BATCH]]), step=1)
