@@ -25,6 +25,8 @@ figures are noisy. Writes ``published/benchmarks/leaderboard_bench.json`` (``--j
    (its first world seed) from a cold cache, timed, with its seconds per phase (render, fit,
    features, episodes, other: :mod:`sfa_gym.phases`); the full board's time per track is
    estimated as that times the track's world seeds (each world seed renders its own runs).
+   ``--compare REV`` runs each task a second time with the code of commit REV (a temporary git
+   worktree, a fresh process) and prints the ratio of the two times without rendering.
 
 Backs docs/leaderboard.md (measured times).
 
@@ -37,16 +39,19 @@ Usage (from the repository root; ~15-20 min on 2 cores, plus the outdoor tracks)
         --json published/benchmarks/leaderboard_outdoor_bench.json
     .venv/bin/python -m benchmarks.bench_leaderboard --full-size band_means \
         --json published/benchmarks/leaderboard_full_bench.json
+    .venv/bin/python -m benchmarks.bench_leaderboard --full-size band_means --compare HEAD~1
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import platform
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -121,11 +126,54 @@ def quick_board(tracks: list[Any], methods: list[str], results: Path, cache: Run
     return rows
 
 
-def full_size_tasks(tracks: list[Any], method: str, cache: RunCache) -> list[dict[str, Any]]:
+# Runs one task with the sfa_gym of the working directory (a worktree of another commit) and
+# prints its output as the last line: how long the same task took at that commit.
+_AT_COMMIT = """
+import json, sys, time
+from sfa_gym.leaderboard.evaluate import Task, run_task
+args = json.loads(sys.argv[1])
+started = time.perf_counter()
+out = run_task(Task(args["track"], args["method"], {}, args["seed"], False, args["cache"]))
+print(json.dumps({"seconds": time.perf_counter() - started, "score": out["scores"]["score"]}))
+"""
+
+
+def task_at_commit(worktree: Path, task: Task, cache: RunCache) -> dict[str, Any]:
+    """``task`` run by the code of ``worktree`` in a fresh process: its seconds, the seconds it
+    spent rendering (the cache's log) and its score."""
+    import subprocess
+    import sys
+
+    before = len(cache.renders())
+    args = {
+        "track": str(Path(task.track_path).resolve()),
+        "method": str(Path(task.method_path).resolve()),
+        "seed": task.world_seed,
+        "cache": str(cache.root),
+    }
+    done = subprocess.run(
+        [sys.executable, "-c", _AT_COMMIT, json.dumps(args)],
+        cwd=worktree,
+        env={**os.environ, "PYTHONPATH": str(worktree)},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    _, render_s = _render_seconds(cache, before)
+    return {**found, "render_seconds": render_s}
+
+
+def full_size_tasks(
+    tracks: list[Any], method: str, cache: RunCache, compare: Path | None = None
+) -> list[dict[str, Any]]:
     """One full-size task per track (its first world seed), local backend, in the order of
     ``tracks``: its wall time, renders included for the first task that needs them, and the
     board's time on the track estimated as that times the track's world seeds (each world seed
-    renders its own runs, so the first task's cost is every task's)."""
+    renders its own runs, so the first task's cost is every task's). With ``compare`` (a
+    worktree of another commit), the same task is run right after by that commit's code, and
+    the ratio of the two times without rendering is reported (the second run finds the renders
+    in the cache unless the rendering code differs)."""
     rows = []
     for track in tracks:
         seeds, _ = track.sized(False)
@@ -135,6 +183,7 @@ def full_size_tasks(tracks: list[Any], method: str, cache: RunCache) -> list[dic
         (output,) = run_tasks([task])
         seconds = time.perf_counter() - started
         renders, render_s = _render_seconds(cache, before)
+        other = None if compare is None else task_at_commit(compare, task, cache)
         rows.append(
             {
                 "track": track.name,
@@ -151,15 +200,41 @@ def full_size_tasks(tracks: list[Any], method: str, cache: RunCache) -> list[dic
                 "load_after": _load(),
             }
         )
+        if other is not None:
+            mine, theirs = seconds - render_s, other["seconds"] - other["render_seconds"]
+            rows[-1]["compared"] = {**other, "ratio_without_rendering": round(mine / theirs, 3)}
         print(
             f"{track.name:18s} full size, world seed {seeds[0]}: {seconds:7.1f} s ({renders} "
             f"renders, {render_s:.1f} s); x {len(seeds)} world seeds = "
             f"{seconds * len(seeds) / 60:.1f} min  score {output['scores']['score']:.3f}\n"
             f"{'':18s} phases: "
-            + ", ".join(f"{name} {s:.1f} s" for name, s in output["phases"].items()),
+            + ", ".join(f"{name} {s:.1f} s" for name, s in output["phases"].items())
+            + (
+                ""
+                if other is None
+                else f"\n{'':18s} the other commit: {other['seconds']:.1f} s "
+                f"({other['render_seconds']:.1f} s rendering), score {other['score']:.3f}; "
+                f"ratio without rendering {rows[-1]['compared']['ratio_without_rendering']:.2f}"
+            ),
             flush=True,
         )
     return rows
+
+
+@contextlib.contextmanager
+def _worktree(rev: str | None) -> Iterator[Path | None]:
+    """A temporary git worktree of ``rev`` (None: none), removed afterwards."""
+    import subprocess
+
+    if rev is None:
+        yield None
+        return
+    folder = Path(tempfile.mkdtemp(prefix="sfa-gym-bench-rev-")) / "tree"
+    subprocess.run(["git", "worktree", "add", "--detach", str(folder), rev], cwd=ROOT, check=True)
+    try:
+        yield folder
+    finally:
+        subprocess.run(["git", "worktree", "remove", "--force", str(folder)], cwd=ROOT, check=True)
 
 
 def ray_speedup(tasks: list[Task], workers: tuple[int, ...]) -> dict[str, Any]:
@@ -219,6 +294,12 @@ def main(argv: list[str] | None = None) -> int:
         help="instead of the quick board and Ray: one full-size task per track with METHOD, "
         "timed, and the full board's time per track estimated from it",
     )
+    parser.add_argument(
+        "--compare",
+        metavar="REV",
+        help="with --full-size: run each task again by the code of git commit REV (a temporary "
+        "worktree) and print the ratio of the times without rendering",
+    )
     args = parser.parse_args(argv)
 
     cache_root = args.cache or Path(tempfile.mkdtemp(prefix="sfa-gym-bench-cache-"))
@@ -241,8 +322,10 @@ def main(argv: list[str] | None = None) -> int:
     started = time.perf_counter()
     if args.full_size:
         print(f"full size, one world seed per track, {args.full_size}, cache {cache_root}")
-        rows = full_size_tasks(tracks, args.full_size, cache)
+        with _worktree(args.compare) as other:
+            rows = full_size_tasks(tracks, args.full_size, cache, other)
         report["full_size"] = {
+            "compared_with": args.compare,
             "method": Path(args.full_size).stem,
             "backend": "local",
             "cache": "cold" if report["cache_renders_at_start"] == 0 else "as found",
