@@ -65,6 +65,12 @@ def _table(results: Path, capsys) -> tuple[int, str, str]:
     return status, out, err
 
 
+def _columns(out: str) -> list[str]:
+    """The column names of the table in ``out``."""
+    header = next(line for line in out.splitlines() if line.startswith("| method | source |"))
+    return header.strip("| ").split(" | ")
+
+
 def _row(out: str, label: str) -> str:
     return next(line for line in out.splitlines() if line.startswith(f"| {label} | yours |"))
 
@@ -192,8 +198,7 @@ def test_a_quick_result_of_another_quick_size_gets_a_column_of_its_own(tmp_path,
     _write(tmp_path, unknown)
     status, out, err = _table(tmp_path, capsys)
     assert status == 0
-    header = next(line for line in out.splitlines() if line.startswith("| method | source |"))
-    assert header.strip("| ").split(" | ")[2:] == [
+    assert _columns(out)[2:] == [
         "few_labels (quick)",
         "few_labels other size (quick)",
         "few_labels size not recorded (quick)",
@@ -210,9 +215,7 @@ def test_another_track_version_or_seed_set_gets_a_column_of_its_own(tmp_path, ca
     partial = _write(tmp_path, _result("partial", {100: 1.0}))
     status, out, err = _table(tmp_path, capsys)
     assert status == 0
-    header = next(line for line in out.splitlines() if line.startswith("| method | source |"))
-    columns = header.strip("| ").split(" | ")
-    assert columns == [
+    assert _columns(out) == [
         "method",
         "source",
         "few_labels (quick)",
