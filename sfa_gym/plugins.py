@@ -30,9 +30,10 @@ a worker process of its own (:mod:`sfa_gym.sandbox`) and returns a proxy
   scratch folder writable, the render cache hidden, no network and its own PID namespace;
   elsewhere it is a plain child process in a scratch folder (said once on stderr).
 
-:func:`load_method_plugin`, :func:`load_controller_plugin`, :func:`load_plugins` (``sfa-gym
-localize``'s baselines) and ``load_method(..., isolated=False)`` import the file into the
-calling process, with its full rights: for the library's own baselines and files you trust.
+:func:`load_plugins` (the baselines of ``sfa-gym localize`` and ``navigate``) runs each file in
+a worker the same way. :func:`load_method_plugin`, :func:`load_controller_plugin` and
+``load_method(..., isolated=False)`` import the file into the calling process, with its full
+rights: for files you trust (your own, while you debug them).
 
 Every plug-in file defines at module level
 
@@ -123,6 +124,7 @@ __all__ = [
     "PluginError",
     "checkout_root",
     "check_views",
+    "close_plugins",
     "default_plugin_folder",
     "file_sha256",
     "get_capabilities",
@@ -457,25 +459,35 @@ def load_method(
 
 
 def load_plugins(
-    folder: Path | None, *, use_default: bool = True, package_dir: Path | None = None
+    folder: Path | None,
+    *,
+    use_default: bool = True,
+    package_dir: Path | None = None,
+    hidden: Sequence[str | os.PathLike[str]] = (),
 ) -> list[tuple[FeatureMethod, tuple[str, ...]]]:
     """The feature methods of the plug-in files in ``folder`` (default arguments), each with the
     regressions ``sfa-gym localize`` evaluates it with: the linear one, the one it is paired
     with and its extra ones (its :class:`~sfa_gym.capabilities.Capabilities`).
 
-    Hierarchical SFA (the built-in ``sfa.py``) is left out: the protocols train it themselves,
-    with their own ``--sfa.*`` settings.
+    Each method runs in a worker process of its own, as on the leaderboard (the trust model
+    above; :data:`~sfa_gym.sandbox.IN_PROCESS` imports them here instead): close them with
+    :func:`close_plugins`. Hierarchical SFA (the built-in ``sfa.py``) is left out: the
+    protocols train it themselves, with their own ``--sfa.*`` settings.
 
     Args:
         folder: the folder the user named, or None.
         use_default: with ``folder=None``, load the :func:`default_plugin_folder` (saying on
             stderr which one when it is not the checkout's); without it, load nothing.
         package_dir: where ``sfa_gym`` is installed (for tests).
+        hidden: folders the workers must not read (the output folder with its renders, the
+            render cache).
 
     Raises:
         ValueError: ``folder`` is not a folder.
+        PluginError, PluginTimeout, PluginCrashed: a file that cannot be loaded (the methods
+            loaded before it are closed).
     """
-    from sfa_gym.protocols.slow_features import SlowFeatureMethod
+    from sfa_gym.sandbox import plugins_isolated
 
     if folder is not None:
         if not Path(folder).is_dir():
@@ -487,10 +499,33 @@ def load_plugins(
     methods: list[tuple[FeatureMethod, tuple[str, ...]]] = []
     if folder is None:
         return methods
-    for path in list_plugin_files(folder):
-        method = load_method_plugin(path)()
-        if isinstance(method, SlowFeatureMethod):
-            continue
-        found = get_capabilities(method)
-        methods.append((method, ("linear", found.regressor, *found.extra_regressors)))
+    try:
+        for path in list_plugin_files(folder):
+            method = load_method(path, isolated=plugins_isolated(), hidden=hidden)
+            if _is_hierarchical_sfa(method):
+                _close(method)
+                continue
+            found = get_capabilities(method)
+            methods.append((method, ("linear", found.regressor, *found.extra_regressors)))
+    except BaseException:
+        close_plugins(methods)
+        raise
     return methods
+
+
+def _is_hierarchical_sfa(method: Any) -> bool:
+    from sfa_gym.protocols.slow_features import SlowFeatureMethod
+
+    return bool(getattr(method, "hierarchical_sfa", False)) or isinstance(method, SlowFeatureMethod)
+
+
+def _close(method: Any) -> None:
+    close = getattr(method, "close", None)
+    if callable(close):
+        close()
+
+
+def close_plugins(methods: Sequence[tuple[FeatureMethod, Any]]) -> None:
+    """Stop the worker of every method of :func:`load_plugins` (in-process ones need nothing)."""
+    for method, _ in methods:
+        _close(method)

@@ -12,12 +12,14 @@ checks the values.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import tyro
 
+from sfa_gym.cli.baselines import baseline_workers
 from sfa_gym.experiments import GridExperiment, OutdoorExperiment, TrajectoryExperiment
 
 __all__ = ["Localize", "LocalizeOutdoor", "LocalizeRun"]
@@ -35,14 +37,15 @@ class _Protocol:
     quiet: bool = False
     """no progress bars"""
 
-    def _methods(self) -> list[tuple[Any, tuple[str, ...]]]:
-        from sfa_gym.plugins import load_plugins
-
-        return [] if self.no_baselines else load_plugins(self.baselines)
-
-    def _report(self, results: dict[str, Any]) -> int:
+    def _evaluate(self, experiment: Callable[..., dict[str, Any]], settings: Any) -> int:
+        """Run ``experiment`` with ``settings`` (checked first) and the baselines, each in a
+        worker process of its own; write and print the table."""
         from sfa_gym.experiments import format_table
 
+        settings.validate()
+        folder = None if self.no_baselines else self.baselines
+        with baseline_workers(self.out, folder, use_default=not self.no_baselines) as found:
+            results = experiment(settings, self.out, found, progress=not self.quiet)
         table = format_table(results)
         Path(self.out, "results.txt").write_text(table + "\n")
         print(table)
@@ -60,11 +63,7 @@ class Localize(_Protocol):
     def run(self) -> int:
         from sfa_gym.experiments import run_grid_experiment
 
-        self.settings.validate()
-        results = run_grid_experiment(
-            self.settings, self.out, self._methods(), progress=not self.quiet
-        )
-        return self._report(results)
+        return self._evaluate(run_grid_experiment, self.settings)
 
 
 @dataclass(frozen=True)
@@ -83,11 +82,7 @@ class LocalizeRun(_Protocol):
         settings = self.settings
         if self.no_exclude:
             settings = dataclasses.replace(settings, exclude=None)
-        settings.validate()
-        results = run_trajectory_experiment(
-            settings, self.out, self._methods(), progress=not self.quiet
-        )
-        return self._report(results)
+        return self._evaluate(run_trajectory_experiment, settings)
 
 
 @dataclass(frozen=True)
@@ -102,8 +97,4 @@ class LocalizeOutdoor(_Protocol):
     def run(self) -> int:
         from sfa_gym.experiments import run_outdoor_experiment
 
-        self.settings.validate()
-        results = run_outdoor_experiment(
-            self.settings, self.out, self._methods(), progress=not self.quiet
-        )
-        return self._report(results)
+        return self._evaluate(run_outdoor_experiment, self.settings)

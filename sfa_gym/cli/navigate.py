@@ -25,22 +25,23 @@ class Navigate:
     settings: tyro.conf.OmitArgPrefixes[NavigationExperiment] = NavigationExperiment()
     """settings of the navigation protocol"""
     baselines: Path | None = None
-    """folder of feature-method plug-in files (default: none; e.g. baselines/)"""
+    """folder of feature-method plug-in files (default: none; e.g. baselines/); each runs in a
+    worker process of its own"""
     quiet: bool = False
     """no progress bars"""
 
     def run(self) -> int:
+        from sfa_gym.cli.baselines import baseline_workers
         from sfa_gym.experiments.navigation import (
             format_navigation_table,
             run_navigation_experiment,
         )
-        from sfa_gym.plugins import load_plugins
 
         self.settings.validate()
-        methods = load_plugins(self.baselines, use_default=False)
-        results = run_navigation_experiment(
-            self.settings, self.out, methods, progress=not self.quiet
-        )
+        with baseline_workers(self.out, self.baselines, use_default=False) as methods:
+            results = run_navigation_experiment(
+                self.settings, self.out, methods, progress=not self.quiet
+            )
         table = format_navigation_table(results)
         Path(self.out, "results.txt").write_text(table + "\n")
         print(table)

@@ -13,7 +13,6 @@ range (lower is better); the navigation score is the success rate (higher is bet
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -25,7 +24,7 @@ from sfa_gym.leaderboard.tracks import Track, load_track, protocol_module
 from sfa_gym.phases import measure
 from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
-from sfa_gym.sandbox import Limits
+from sfa_gym.sandbox import IN_PROCESS, Limits, isolation, plugins_isolated
 
 __all__ = [
     "HIGHER_IS_BETTER",
@@ -121,29 +120,6 @@ def _controller(
         return made[-1]
 
     return make
-
-
-IN_PROCESS = "SFA_GYM_PLUGINS_IN_PROCESS"
-"""Set to ``1``, tasks import their plug-ins into their own process, with its full rights: for
-debugging a plug-in of one's own (a debugger stops in it), or a test in which a plug-in stands for
-a failure of the evaluator itself (a worker that dies, a signal to the sweep). Never for a board
-of others' plug-ins."""
-
-
-def plugins_isolated() -> bool:
-    """Whether tasks run plug-ins in worker processes (the default; see :data:`IN_PROCESS`)."""
-    return os.environ.get(IN_PROCESS, "") != "1"
-
-
-def isolation() -> str:
-    """How this process runs plug-ins: ``"bwrap"`` (worker processes confined by bubblewrap),
-    ``"process"`` (plain worker processes: no bubblewrap here) or ``"in-process"``
-    (:data:`IN_PROCESS`). Only ``"bwrap"`` results can be published."""
-    from sfa_gym.sandbox.process import confinement
-
-    if not plugins_isolated():
-        return "in-process"
-    return "bwrap" if confinement() is not None else "process"
 
 
 def run_task(task: Task) -> dict[str, Any]:

@@ -8,11 +8,14 @@ from __future__ import annotations
 
 from sfa_gym.sandbox.describe import describe_plugin
 from sfa_gym.sandbox.process import (
+    IN_PROCESS,
     PluginCrashed,
     PluginFailed,
     PluginOutOfMemory,
     PluginTimeout,
     confinement,
+    isolation,
+    plugins_isolated,
 )
 from sfa_gym.sandbox.proxies import (
     TIME_LIMITS,
@@ -24,6 +27,7 @@ from sfa_gym.sandbox.proxies import (
 )
 
 __all__ = [
+    "IN_PROCESS",
     "TIME_LIMITS",
     "IsolatedController",
     "IsolatedMethod",
@@ -36,4 +40,6 @@ __all__ = [
     "check_time_limits",
     "confinement",
     "describe_plugin",
+    "isolation",
+    "plugins_isolated",
 ]

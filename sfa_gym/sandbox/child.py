@@ -81,8 +81,15 @@ def _load(request: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
     plugin = load_plugin(Path(request["path"]), request["kind"])
     arguments = plugin.arguments(request.get("args") or {})
     if request["kind"] == "method":
+        from sfa_gym.protocols.slow_features import SlowFeatureMethod
+
         made = plugin(**arguments)
-        about = {"capabilities": _capabilities(made), "rotation": _rotation(made)}
+        about = {
+            "capabilities": _capabilities(made),
+            "rotation": _rotation(made),
+            # the command line's protocols train hierarchical SFA with their own settings
+            "hierarchical_sfa": isinstance(made, SlowFeatureMethod),
+        }
     else:
         from sfa_gym.navigation.sensors import Rover
 

@@ -26,12 +26,15 @@ from typing import Any
 from sfa_gym.sandbox.wire import WireError, decode, encode
 
 __all__ = [
+    "IN_PROCESS",
     "PluginCrashed",
     "PluginFailed",
     "PluginOutOfMemory",
     "PluginTimeout",
     "Worker",
     "confinement",
+    "isolation",
+    "plugins_isolated",
 ]
 
 
@@ -302,3 +305,25 @@ def _wait(fd: int, deadline: float, *, write: bool) -> None:
     ready = select.select(*waiting, [], remaining)
     if not any(ready):
         raise TimeoutError
+
+
+IN_PROCESS = "SFA_GYM_PLUGINS_IN_PROCESS"
+"""Set to ``1``, the evaluator (a leaderboard task, the command line's protocols) imports its
+plug-ins into its own process, with its full rights: for
+debugging a plug-in of one's own (a debugger stops in it), or a test in which a plug-in stands for
+a failure of the evaluator itself (a worker that dies, a signal to the sweep). Never for a board
+of others' plug-ins."""
+
+
+def plugins_isolated() -> bool:
+    """Whether tasks run plug-ins in worker processes (the default; see :data:`IN_PROCESS`)."""
+    return os.environ.get(IN_PROCESS, "") != "1"
+
+
+def isolation() -> str:
+    """How this process runs plug-ins: ``"bwrap"`` (worker processes confined by bubblewrap),
+    ``"process"`` (plain worker processes: no bubblewrap here) or ``"in-process"``
+    (:data:`IN_PROCESS`). Only ``"bwrap"`` results can be published."""
+    if not plugins_isolated():
+        return "in-process"
+    return "bwrap" if confinement() is not None else "process"

@@ -232,6 +232,9 @@ class IsolatedMethod(_Isolated):
             rotation = self._about.get("rotation")
             if rotation is not None:
                 self.rotation = Rotation(**rotation)
+            self.hierarchical_sfa = bool(self._about.get("hierarchical_sfa"))
+            """whether the plug-in is the built-in hierarchical SFA (the command line's
+            protocols train their own, with their ``--sfa.*`` settings)"""
         except (TypeError, ValueError, KeyError) as error:
             self.close()
             raise PluginError(f"{self.path} reported unreadable capabilities: {error}") from None
