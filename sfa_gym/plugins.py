@@ -24,8 +24,8 @@ a worker process of its own (:mod:`sfa_gym.sandbox`) and returns a proxy
   the worker reports of the file's ``Args`` (:func:`~sfa_gym.sandbox.describe_plugin`): the
   evaluator never imports the file, not even to read its arguments;
 - the worker's address space has a memory limit (``Limits.memory_mb``, default three quarters
-  of the machine's memory); an allocation past it raises
-  :class:`~sfa_gym.sandbox.PluginOutOfMemory`, naming the plug-in and the limit;
+  of the machine's memory, divided among the tasks a sweep runs at once); an allocation past
+  it raises :class:`~sfa_gym.sandbox.PluginOutOfMemory`, naming the plug-in and the limit;
 - where bubblewrap (``bwrap``) works, the worker sees a read-only filesystem with only its
   scratch folder writable, the render cache hidden, no network and its own PID namespace;
   elsewhere it is a plain child process in a scratch folder (said once on stderr).

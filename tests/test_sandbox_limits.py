@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import copy
 import json
+import os
 import re
 from pathlib import Path
 
@@ -186,3 +187,24 @@ def test_the_default_memory_limit_is_three_quarters_of_the_machine():
     assert Limits().memory_mb == pytest.approx(machine * 3 / 4, abs=1)
     with pytest.raises(ValueError, match="memory limit memory_mb must be a positive int"):
         Limits(memory_mb=0)
+
+
+def test_tasks_that_run_at_once_share_the_default_memory_limit(tmp_path):
+    from sfa_gym.leaderboard.evaluate import task_limits
+    from sfa_gym.leaderboard.sweep import concurrent_tasks
+    from sfa_gym.leaderboard.tracks import load_track
+
+    whole = Limits().memory_mb
+    assert concurrent_tasks("local", None, None) == 1
+    assert concurrent_tasks("ray", None, 3) == 3
+    assert concurrent_tasks("ray", "auto", None) is None  # each node's own CPUs
+    track = load_track(_write_track(tmp_path / "tracks", copy.deepcopy(TINY)))
+    shared = task_limits(track, Task(str(track.path), "band_means", concurrent_tasks=3))
+    assert shared.memory_mb == whole // 3
+    per_node = task_limits(track, Task(str(track.path), "band_means", concurrent_tasks=None))
+    assert per_node.memory_mb == whole // (os.cpu_count() or 1)
+    # a limit given explicitly is each worker's own
+    given = Task(str(track.path), "band_means", memory_limit_mb=700, concurrent_tasks=3)
+    assert task_limits(track, given).memory_mb == 700
+    with pytest.raises(ValueError, match="sharing must be a positive int"):
+        Limits.of({}, None, 0)

@@ -73,7 +73,8 @@ class LeaderboardRun:
     the defaults"""
     memory_limit_mb: int | None = None
     """memory limit of each plug-in's worker process, MiB (default: the track's
-    memory_limit_mb, else 3/4 of this machine's memory)"""
+    memory_limit_mb, else 3/4 of this machine's memory divided among the tasks that run at once:
+    one per CPU on Ray)"""
     rerun: bool = False
     """compute every task again; by default a task whose file under <results>/tasks holds its
     finished result (same track version, method file, arguments and size) is reused, so that

@@ -13,6 +13,7 @@ range (lower is better); the navigation score is the success rate (higher is bet
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -57,7 +58,12 @@ class Task:
         time_limits: seconds per kind of call into the plug-ins (``{"fit": 3600}``), over
             the track's ``time_limits``, over the defaults of :class:`~sfa_gym.sandbox.Limits`.
         memory_limit_mb: the memory limit of each plug-in's worker, MiB (None: the track's
-            ``memory_limit_mb``, else the default of :class:`~sfa_gym.sandbox.Limits`).
+            ``memory_limit_mb``, else the default of :class:`~sfa_gym.sandbox.Limits` shared by
+            ``concurrent_tasks``).
+        concurrent_tasks: how many tasks may run at the same time on the machine this one runs
+            on (None: its number of CPUs, as Ray runs one task per CPU): the default memory
+            limit is three quarters of the machine's memory divided among them, so that
+            runaway plug-ins of all of them together cannot exhaust it.
     """
 
     track_path: str
@@ -70,6 +76,7 @@ class Task:
     controller_args: Mapping[str, Any] = field(default_factory=dict)
     time_limits: Mapping[str, float] = field(default_factory=dict)
     memory_limit_mb: int | None = None
+    concurrent_tasks: int | None = 1
 
 
 def task_limits(track: Track, task: Task) -> Limits:
@@ -77,7 +84,8 @@ def task_limits(track: Track, task: Task) -> Limits:
     memory_mb = task.memory_limit_mb
     if memory_mb is None:
         memory_mb = track.memory_limit_mb
-    return Limits.of({**track.time_limits, **task.time_limits}, memory_mb)
+    sharing = task.concurrent_tasks or os.cpu_count() or 1
+    return Limits.of({**track.time_limits, **task.time_limits}, memory_mb, sharing)
 
 
 def _protocol_scores(

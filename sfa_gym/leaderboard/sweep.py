@@ -129,6 +129,7 @@ def run_sweep(
     limits = {"time_limits": check_time_limits(time_limits or {}, "--time-limits")}
     if memory_limit_mb is not None:
         limits["memory_limit_mb"] = check_memory_mb(memory_limit_mb, "--memory-limit-mb")
+    limits["concurrent_tasks"] = concurrent_tasks(backend, address, num_cpus)
     # the plug-ins' workers must not read the render cache or the results either
     hidden = [RunCache(cache_dir).root, Path(results_dir)]
     driver = None if controller is None else _describe_controller(tracks, *controller, hidden)
@@ -202,6 +203,16 @@ def run_sweep(
     if failures:
         raise SweepError([failures[i] for i in sorted(failures)], ordered)  # in the sweep's order
     return ordered
+
+
+def concurrent_tasks(backend: Backend, address: str | None, num_cpus: int | None) -> int | None:
+    """How many tasks of a sweep may run at once on one machine: 1 locally, one per CPU on
+    Ray (``num_cpus`` of a local Ray; on a cluster, None: each node's own CPU count)."""
+    if backend == "local":
+        return 1
+    if address is not None:
+        return None
+    return num_cpus or os.cpu_count() or 1
 
 
 def _plan(

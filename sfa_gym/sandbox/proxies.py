@@ -33,10 +33,13 @@ __all__ = [
 ]
 
 
-def default_memory_mb() -> int:
-    """Three quarters of this machine's physical memory, MiB: the default memory limit of a
-    worker (room for the evaluator and the system beside one runaway plug-in)."""
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") * 3 // 4 // 2**20
+def default_memory_mb(sharing: int = 1) -> int:
+    """Three quarters of this machine's physical memory, MiB, shared by ``sharing`` workers that
+    may run at the same time: the default memory limit of a worker (room for the evaluators and
+    the system beside runaway plug-ins, which together cannot exhaust the machine)."""
+    if isinstance(sharing, bool) or not isinstance(sharing, int) or sharing < 1:
+        raise ValueError(f"sharing must be a positive int of workers, got {sharing!r}")
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") * 3 // 4 // 2**20 // sharing
 
 
 TIME_LIMITS = ("load", "fit", "transform", "reset", "act")
@@ -96,9 +99,11 @@ class Limits:
     before a plug-in allocates anything"""
 
     @classmethod
-    def of(cls, seconds: Mapping[str, float] | None, memory_mb: int | None = None) -> Limits:
+    def of(
+        cls, seconds: Mapping[str, float] | None, memory_mb: int | None = None, sharing: int = 1
+    ) -> Limits:
         """The defaults with ``seconds`` (``{"fit": 60}``) and ``memory_mb`` (None: the
-        default) applied.
+        default, :func:`default_memory_mb` shared by ``sharing`` workers at a time) applied.
 
         Raises:
             ValueError: a key that is not a kind of call (the message lists them), or a limit
@@ -106,7 +111,7 @@ class Limits:
         """
         given = check_time_limits(seconds or {})
         if memory_mb is None:
-            return cls(**given)
+            memory_mb = default_memory_mb(sharing)
         return cls(**given, memory_mb=memory_mb)
 
     def __post_init__(self) -> None:
