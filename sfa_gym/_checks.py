@@ -6,18 +6,27 @@ Bools are never numbers here (``True`` is an ``int`` to Python, never a sensible
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 import numpy as np
 
 __all__ = [
+    "FEATURE_BOUND",
     "check_finite",
+    "check_fits_in_memory",
     "check_int",
     "check_positive",
     "check_positive_int",
     "check_world_seed",
     "is_number",
+    "machine_memory_bytes",
 ]
+
+
+FEATURE_BOUND = 1e12
+"""The largest magnitude a feature may have: far above any real feature, far below where sums of
+squares over a field overflow or lose every digit."""
 
 
 def is_number(value: Any) -> bool:
@@ -66,3 +75,19 @@ def check_positive(name: str, value: Any) -> float:
     if not (is_number(value) and value > 0 and math.isfinite(value)):
         raise ValueError(f"{name} must be a positive number, got {value!r}")
     return float(value)
+
+
+def machine_memory_bytes() -> int:
+    """This machine's physical memory, bytes."""
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def check_fits_in_memory(what: str, n_bytes: float) -> None:
+    """ValueError naming ``what`` (the setting and its size) if holding ``n_bytes`` would take
+    more than this machine's physical memory: refused before anything is allocated."""
+    available = machine_memory_bytes()
+    if n_bytes > available:
+        raise ValueError(
+            f"{what} would need {n_bytes / 2**30:.3g} GiB of memory; this machine has "
+            f"{available / 2**30:.3g} GiB"
+        )

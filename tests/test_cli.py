@@ -50,6 +50,12 @@ def test_localize_rejects_an_impossible_grid(tmp_path, capsys):
     argv = ["localize", "--out", str(tmp_path), "--grid", "5", "--n-train", "20", "--n-test", "10"]
     assert main(argv) == 2
     assert "do not fit on a 5 x 5 grid" in capsys.readouterr().err
+    # a grid the machine cannot hold is refused before anything is written, the size named
+    out = tmp_path / "huge"
+    argv = ["localize", "--out", str(out), "--grid", "1000000", "--n-train", "20", "--n-test"]
+    assert main([*argv, "10"]) == 2
+    assert "grid 1000000 (1000000000000 positions) would need" in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_localize_run_protocol_end_to_end(tmp_path):

@@ -138,6 +138,20 @@ def test_metadata_describes_world_camera_and_model(env, field):
         other.check_env(env)
 
 
+def test_a_field_file_without_its_world_is_refused_by_an_env(env, field, tmp_path):
+    stripped = {k: v for k, v in field.metadata.items() if k not in ("world", "world_hash")}
+    FeatureField(field.values, field.bounds, metadata=stripped).check_env(env)  # built here
+    FeatureField(field.values, field.bounds, metadata=stripped).save(tmp_path / "f.npz")
+    with pytest.raises(ValueError, match=r"does not say which world.*\['world', 'world_hash'\]"):
+        FeatureField.load(tmp_path / "f.npz").check_env(env)
+    nulled = {**field.metadata, "world_hash": None}  # the keys kept, their values wiped
+    FeatureField(field.values, field.bounds, metadata=nulled).save(tmp_path / "g.npz")
+    with pytest.raises(ValueError, match="world_hash is 'sha256:"):
+        FeatureField.load(tmp_path / "g.npz").check_env(env)
+    field.save(tmp_path / "h.npz")
+    FeatureField.load(tmp_path / "h.npz").check_env(env)  # a whole file passes
+
+
 # -- interpolation -----------------------------------------------------------------------------
 
 
@@ -318,6 +332,8 @@ def test_bad_values_are_refused():
         FeatureField(np.zeros((3, 4)), (0, 1, 0, 1))
     with pytest.raises(ValueError, match="finite"):
         FeatureField(np.full((2, 2, 1), np.nan), (0, 1, 0, 1))
+    with pytest.raises(ValueError, match="magnitude of 1e\\+300; features must stay within 1e\\+12"):
+        FeatureField(np.full((2, 2, 1), 1e300), (0, 1, 0, 1))
     with pytest.raises(ValueError, match="xmin < xmax"):
         FeatureField(np.zeros((2, 2, 1)), (1, 0, 0, 1))
 

@@ -284,6 +284,9 @@ def test_two_processes_asking_for_the_same_run_render_it_once(tmp_path):
 
 def test_a_truncated_entry_is_detected_and_rendered_again(tmp_path):
     cache = RunCache(tmp_path)
+    # what a render killed in another process leaves behind
+    killed = tmp_path / f".{cache.path(_request()).stem}.99999999.tmp.run"
+    killed.mkdir(parents=True)
     before = np.asarray(cache.get(_request()).panoramas)
     chunk = next(cache.path(_request()).glob("chunk-*.npz"))
     data = chunk.read_bytes()
@@ -292,8 +295,68 @@ def test_a_truncated_entry_is_detected_and_rendered_again(tmp_path):
     assert len(cache.renders()) == 2
     np.testing.assert_array_equal(before, after)
     assert chunk.read_bytes() == data
+    assert not killed.exists()
     # what determines the pixels is in the key: another heading seed is another entry
     assert cache.path(_request(seed=7002)) != cache.path(_request())
+
+
+def _forge(entry, change):
+    """Rewrite the first chunk of a cache entry with ``change(arrays)`` applied, and its
+    SHA-256 in the header with it (what someone who can write the cache can do)."""
+    from sfa_gym.recording.runfile import HEADER, _write_chunk
+
+    header = json.loads((entry / HEADER).read_text())
+    chunk = entry / header["chunks"][0]["file"]
+    with np.load(chunk) as stored:
+        arrays = {name: stored[name].copy() for name in stored.files}
+    change(arrays)
+    header["chunks"][0]["sha256"] = _write_chunk(chunk, arrays, compress=False)
+    (entry / HEADER).write_text(json.dumps(header))
+
+
+@pytest.mark.parametrize("forged", ["pixels", "poses"])
+def test_a_forged_entry_with_matching_checksums_is_rendered_again(tmp_path, forged, capsys):
+    from sfa_gym.recording import cache as cache_module
+
+    cache = RunCache(tmp_path)
+    before = cache.get(_request())
+    panoramas, poses = np.asarray(before.panoramas), before.poses.copy()
+
+    def change(arrays):
+        if forged == "pixels":
+            arrays["panoramas"] = 255 - arrays["panoramas"]
+        else:
+            arrays["poses"][-1, :2] += 0.5  # one label moved
+
+    _forge(cache.path(_request()), change)
+    assert RunCache(tmp_path).get(_request()) is not None  # this process rendered it: trusted
+    cache_module._CHECKED.clear()  # as a fresh process
+    after = RunCache(tmp_path).get(_request())
+    assert "does not match its recording" in capsys.readouterr().err
+    assert len(cache.renders()) == 2
+    np.testing.assert_array_equal(after.panoramas, panoramas)
+    np.testing.assert_array_equal(after.poses, poses)
+
+
+def test_a_driven_entry_is_checked_by_its_first_sample(tmp_path, capsys):
+    from sfa_gym.recording import cache as cache_module
+    from sfa_gym.recording.drivers import RandomWalkDriver
+
+    request = RunRequest(
+        world="paper_sim", world_seed=100, panorama=(8, 24), driver=RandomWalkDriver(), n_steps=5
+    )
+    cache = RunCache(tmp_path)
+    first = np.asarray(cache.get(request).panoramas[0])
+    cache_module._CHECKED.clear()
+    assert RunCache(tmp_path).get(request) is not None and len(cache.renders()) == 1
+
+    def change(arrays):
+        arrays["panoramas"][0] = arrays["panoramas"][1]
+
+    _forge(cache.path(request), change)
+    cache_module._CHECKED.clear()
+    np.testing.assert_array_equal(RunCache(tmp_path).get(request).panoramas[0], first)
+    assert len(cache.renders()) == 2 and "sample 0" in capsys.readouterr().err
 
 
 def test_a_fresh_process_whose_first_step_is_the_cache_renders_headless(tmp_path):

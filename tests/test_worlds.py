@@ -113,6 +113,9 @@ def test_bad_specs_name_the_problem(spec_dict):
     bad_arena = {**spec_dict, "arena": {**spec_dict["arena"], "size": [-7.0, 7.0]}}
     with pytest.raises(ValueError, match="size"):
         world_spec_from_dict(bad_arena)
+    huge = {**spec_dict, "arena": {**spec_dict["arena"], "size": [1e9, 7.0]}}
+    with pytest.raises(ValueError, match=r"arena size\[0\] = 1000000000.0 m is larger than"):
+        world_spec_from_dict(huge)
     bad_height = {**spec_dict, "arena": {**spec_dict["arena"], "wall_height": 0}}
     with pytest.raises(ValueError, match="wall_height"):
         world_spec_from_dict(bad_height)

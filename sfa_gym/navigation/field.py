@@ -88,6 +88,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sfa_gym._checks import FEATURE_BOUND
 from sfa_gym.capabilities import get_capabilities
 from sfa_gym.features import rotation_averaged_features
 from sfa_gym.files import check_format_header, read_npy_header, strict_json, write_atomic
@@ -118,6 +119,10 @@ def world_hash(spec: Any) -> str | None:
         return None
     text = json.dumps(dataclasses.asdict(spec), sort_keys=True, separators=(",", ":"))
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
+
+
+WORLD_KEYS = ("world", "world_hash", "world_seed", "panorama")
+"""The metadata keys that say which world and camera a field was built from."""
 
 
 def _env_description(env: Any) -> dict[str, Any]:
@@ -313,6 +318,11 @@ class FeatureField:
             )
         if not np.all(np.isfinite(values)):
             raise ValueError("values must be finite")
+        if values.size and float(np.max(np.abs(values))) > FEATURE_BOUND:
+            raise ValueError(
+                f"values reach a magnitude of {float(np.max(np.abs(values))):.3g}; features must "
+                f"stay within {FEATURE_BOUND:g} (beyond it the look-ups overflow)"
+            )
         try:
             xmin, xmax, ymin, ymax = (float(b) for b in bounds)
         except (TypeError, ValueError):
@@ -333,6 +343,8 @@ class FeatureField:
         self.free = free
         self.bounds = (xmin, xmax, ymin, ymax)
         self.metadata = dict(metadata or {})
+        self.from_file: Path | None = None
+        """the file the field was read from (:meth:`load`), or None"""
         self.interpolation = interpolation
         self.xs = np.linspace(xmin, xmax, nx)
         self.ys = np.linspace(ymin, ymax, ny)
@@ -543,13 +555,21 @@ class FeatureField:
 
     def check_env(self, env: Any) -> None:
         """Raise ValueError if ``env`` renders another world or camera than the field was built
-        from (world spec hash, world seed, panorama, arena bounds); a field built by hand
-        without this metadata passes."""
+        from (world spec hash, world seed, panorama, arena bounds). A field built by hand in
+        this process without this metadata passes; one read from a file must name its world
+        (a file is anybody's to edit)."""
         env = getattr(env, "unwrapped", env)
         now = _env_description(env)
+        missing = [key for key in WORLD_KEYS if key not in self.metadata]
+        if self.from_file is not None and missing:
+            raise ValueError(
+                f"the feature field {str(self.from_file)!r} does not say which world it belongs "
+                f"to (its metadata lacks {missing}): build it with FeatureField.build, or put "
+                "the world's keys of the env in its metadata"
+            )
         problems = [
             f"{key} is {now[key]!r}, the field's {self.metadata[key]!r}"
-            for key in ("world", "world_hash", "world_seed", "panorama")
+            for key in WORLD_KEYS
             if key in self.metadata and now[key] != self.metadata[key]
         ]
         bounds = tuple(float(b) for b in getattr(env, "arena_bounds", self.bounds))
@@ -624,7 +644,7 @@ class FeatureField:
                 f"cannot load feature field {str(path)!r}: not a readable .npz archive ({err})"
             ) from None
         try:
-            return cls(
+            field = cls(
                 arrays["values"],
                 header["bounds"],
                 free=arrays["free"],
@@ -633,6 +653,8 @@ class FeatureField:
             )
         except (TypeError, ValueError) as err:
             raise ValueError(f"cannot load feature field {str(path)!r}: {err}") from None
+        field.from_file = path
+        return field
 
 
 class _BadField(ValueError):

@@ -27,7 +27,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym._checks import check_int, check_positive_int, check_world_seed
+from sfa_gym._checks import check_fits_in_memory, check_int, check_positive_int, check_world_seed
 from sfa_gym.localization import fit_predict, mae, make_regressor, random_split_mae
 from sfa_gym.localization.metrics import MAE, SplitMAE, mae_dict
 from sfa_gym.phases import phase
@@ -90,6 +90,11 @@ class Config(RenderSettings):
             check_choice("evaluations", evaluation, GridEvaluation)
         if len(set(self.evaluations)) != len(self.evaluations):
             raise ValueError(f"evaluations {list(self.evaluations)} repeats an evaluation")
+        # the whole grid is rendered and held (a panorama and a pose per position)
+        check_fits_in_memory(
+            f"grid {self.grid} ({self.grid**2} positions)",
+            self.grid**2 * (self.panorama_bytes() + 3 * 8),
+        )
         if self.n_train + self.n_test > self.grid**2:
             raise ValueError(
                 f"n_train + n_test = {self.n_train + self.n_test} positions do not fit on a "

@@ -110,6 +110,12 @@ class RenderSettings:
         """The simulated rotation every method is trained and evaluated on."""
         return Rotation(step=self.step)
 
+    def panorama_bytes(self) -> int:
+        """Bytes of one panorama (with the env's own camera: the smallest of the registered
+        envs', 40 x 350, a lower bound)."""
+        height, width = (40, 350) if self.panorama is None else self.panorama
+        return int(height) * int(width) * 3
+
     def validate_rendering(self) -> None:
         """Raise ValueError naming the first bad field of these."""
         check_env_id("env_id", self.env_id)

@@ -19,8 +19,10 @@ Concurrency: a process that finds no valid entry takes an exclusive ``fcntl.floc
 ``<key>.lock``, looks again (another process may have rendered it meanwhile), renders into a
 temporary directory and renames it to ``<key>.run`` (``os.replace``, atomic), so a reader sees
 a whole run or none. An entry that fails the run format's checks (a missing or truncated chunk,
-a SHA-256 mismatch) is deleted and rendered again. Each render appends one line to
-``<cache>/renders.log`` (key, pid, seconds).
+a SHA-256 mismatch) is deleted and rendered again, and so is one whose samples, rendered again
+the first time a process reads the entry, differ from it (:mod:`sfa_gym.recording.audit`: a
+checksum stored beside the run proves nothing to whoever could rewrite both). Each render
+appends one line to ``<cache>/renders.log`` (key, pid, seconds).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ import json
 import math
 import os
 import shutil
+import sys
 import time
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -62,6 +65,9 @@ not part of the key: most releases do not change a pixel). 2: the code hash join
 _RENDERING_PACKAGES = ("sim", "recording")
 
 ENV_VARIABLE = "SFA_GYM_CACHE"
+
+# the keys of the entries this process has rendered or checked against their recording
+_CHECKED: set[str] = set()
 
 
 def default_cache_dir() -> Path:
@@ -304,17 +310,38 @@ class RunCache:
 
     def get(self, request: RunRequest) -> Any:
         """The :class:`~sfa_gym.recording.runfile.Run` of ``request``, rendered if no valid
-        entry exists (once, whichever number of processes ask at the same time)."""
+        entry exists (once, whichever number of processes ask at the same time). An entry is
+        valid when its chunks match their checksums and, the first time this process reads it,
+        samples rendered again match it (:mod:`~sfa_gym.recording.audit`)."""
         path = self.path(request)
         run = self._valid(path)
-        if run is not None:
+        if run is not None and self._matches_recording(request, run):
             return run
         self.root.mkdir(parents=True, exist_ok=True)
         with _locked(path.with_suffix(".lock")):
             run = self._valid(path)
-            if run is not None:
+            if run is not None and self._matches_recording(request, run):
                 return run
             return self._render(request, path)
+
+    def _matches_recording(self, request: RunRequest, run: Any) -> bool:
+        """Whether ``run`` matches samples of ``request`` rendered again; checked once per
+        process and entry (a mismatch is said on stderr: the entry is then rendered again)."""
+        from sfa_gym.recording.audit import rerender_mismatch
+
+        key = request.key()
+        if key in _CHECKED:
+            return True
+        mismatch = rerender_mismatch(request, run)
+        if mismatch is not None:
+            print(
+                f"sfa-gym: render cache entry {run.path} does not match its recording "
+                f"({mismatch}); rendering it again",
+                file=sys.stderr,
+            )
+            return False
+        _CHECKED.add(key)
+        return True
 
     def _render(self, request: RunRequest, path: Path) -> Any:
         from sfa_gym.files import write_json_atomic
@@ -324,9 +351,11 @@ class RunCache:
         if path.exists():
             # damaged or incomplete: nothing in it is trusted
             shutil.rmtree(path)
+        # under the entry's lock no other process renders it: a temporary of it is left by a
+        # render that was killed
+        for stale in path.parent.glob(f".{path.stem}.*.tmp.run"):
+            shutil.rmtree(stale, ignore_errors=True)
         tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.run")
-        if tmp.exists():
-            shutil.rmtree(tmp)
         started = time.perf_counter()
         record(
             request.env_id,
@@ -347,6 +376,7 @@ class RunCache:
             os.write(fd, line.encode())
         finally:
             os.close(fd)
+        _CHECKED.add(request.key())  # rendered by this process
         return load_run(path)
 
     def renders(self) -> list[str]:

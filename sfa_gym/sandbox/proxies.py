@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sfa_gym._checks import FEATURE_BOUND, machine_memory_bytes
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.plugin_files import PluginError, resolve_plugin
 from sfa_gym.sandbox.process import Worker
@@ -39,7 +40,7 @@ def default_memory_mb(sharing: int = 1) -> int:
     the system beside runaway plug-ins, which together cannot exhaust the machine)."""
     if isinstance(sharing, bool) or not isinstance(sharing, int) or sharing < 1:
         raise ValueError(f"sharing must be a positive int of workers, got {sharing!r}")
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") * 3 // 4 // 2**20 // sharing
+    return machine_memory_bytes() * 3 // 4 // 2**20 // sharing
 
 
 TIME_LIMITS = ("load", "fit", "transform", "reset", "act")
@@ -178,11 +179,6 @@ def _numbers(value: Any, who: str, what: str) -> NDArray[Any]:
         shown = f"an array of {value.dtype}" if isinstance(value, np.ndarray) else repr(value)[:80]
         raise PluginError(f"{who}: {what} must be an array of real numbers, got {shown}")
     return value
-
-
-FEATURE_BOUND = 1e12
-"""The largest magnitude a feature may have: far above any real feature, far below where sums of
-squares over a field overflow or lose every digit."""
 
 
 def _features(value: Any, shape: tuple[int, ...], who: str, what: str) -> NDArray[Any]:

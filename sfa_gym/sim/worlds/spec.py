@@ -109,6 +109,10 @@ class SurfaceSpec:
             raise ValueError(f"marks must lie in [0, 1], got {self.marks}")
 
 
+MAX_ARENA_SIZE = 2000.0
+"""The largest side of an arena, metres."""
+
+
 @dataclass(frozen=True)
 class ArenaSpec:
     """The walled arena, centred on the world origin (metres).
@@ -146,6 +150,11 @@ class ArenaSpec:
             _check_positive(getattr(self, name), f"arena {name}")
         for i, s in enumerate(self.size):
             _check_positive(s, f"arena size[{i}]")
+            if s > MAX_ARENA_SIZE:
+                raise ValueError(
+                    f"arena size[{i}] = {s} m is larger than {MAX_ARENA_SIZE:g} m: the walls, the "
+                    "grids and the fields scale with it (a campus is a few hundred metres)"
+                )
         for name in ("margin", "wall_height", "wall_thickness"):
             _check_positive(getattr(self, name), f"arena {name}")
         if self.panels_per_wall < 1:
