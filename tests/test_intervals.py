@@ -168,3 +168,17 @@ def test_the_published_results_verify_unchanged_and_show_in_range():
             continue
         lo, hi = score["ci95"]
         assert 0.0 <= lo <= score["mean"] <= hi <= (1.0 if higher else math.inf)
+
+
+def test_the_navigation_table_prints_wilson_intervals_in_brackets():
+    from sfa_gym.experiments.navigation import format_navigation_table
+    from sfa_gym.navigation.evaluate import summarize as summarize_episodes
+
+    episode = dict(
+        success=True, spl=0.8, soft_spl=0.9, final_distance=0.1, path_ratio=1.25, collisions=0
+    )
+    # ten successes, none interior: Wilson's interval reaches 1 and keeps a width below it
+    episodes = [{**episode, "steps": 40, "interior": False} for _ in range(10)]
+    table = format_navigation_table({"controllers": {"gradient": summarize_episodes(episodes)}})
+    row = table.splitlines()[2]
+    assert row.startswith("| gradient | 1.00 [0.72, 1.00] | 0.80 [0.80, 0.80] | - | - |"), row
