@@ -155,7 +155,9 @@ def _print_results(paths: list[Path]) -> None:
     for path in paths:
         score = json.loads(path.read_text())["score"]
         interval = format_interval(score["ci95"], score["n"], digits=3)
-        print(f"{path}: {score['mean']:.3f} {interval} (95 % interval: {score['interval']})")
+        # with too few seeds for an interval the count stands alone, else the method beside it
+        method = f" (95 %, {score['interval']})" if score["ci95"] else ""
+        print(f"{path}: {score['mean']:.3f} {interval}{method}")
 
 
 @contextlib.contextmanager
