@@ -111,12 +111,11 @@ def test_results_off_the_lock_or_off_the_reference_episodes_are_marked(tmp_path)
     assert marks.fingerprints == {(column, ("pca", "yours")): [101]}
     assert marks.unrecorded == [(column, ("sfa", "yours"))]
     table = markdown_table(board, marks)
-    assert f"| pca | yours | 0.50 [0.50, 0.50] {VERSIONS_MARK}{FINGERPRINT_MARK} |" in table
+    assert f"| pca | yours | 0.50 (n=2) {VERSIONS_MARK}{FINGERPRINT_MARK} |" in table
     assert (
-        "| band_means | yours | 0.50 [0.50, 0.50] |" in table
-        and "| sfa | yours | 0.50 [0.50, 0.50] |" in table
+        "| band_means | yours | 0.50 (n=2) |" in table and "| sfa | yours | 0.50 (n=2) |" in table
     )
-    assert "| pca | reference | 0.50 [0.50, 0.50] |" in table
+    assert "| pca | reference | 0.50 (n=2) |" in table
     assert any(line.startswith(VERSIONS_MARK) for line in table.splitlines())
     assert any(line.startswith(FINGERPRINT_MARK) for line in table.splitlines())
     warnings = "\n".join(marks.warnings())
@@ -169,14 +168,14 @@ def test_the_table_command_names_results_off_the_lock_on_stderr(tmp_path, capsys
     assert main(["leaderboard", "table", "--markdown", "--results", str(tmp_path)]) == 0
     out, err = capsys.readouterr()
     row = next(line for line in out.splitlines() if line.startswith("| my_method | yours |"))
-    assert f"| 0.50 {VERSIONS_MARK} |" in row
+    assert f"| 0.50 (n=1) {VERSIONS_MARK} |" in row
     assert f"mujoco 3.2.0 (lock {lock['mujoco']})" in err
     # on the lock: no mark, no line about it
     _write(tmp_path, copy.deepcopy(mine) | {"provenance": {"versions": lock, "git_commit": None}})
     assert main(["leaderboard", "table", "--markdown", "--results", str(tmp_path)]) == 0
     out, err = capsys.readouterr()
     row = next(line for line in out.splitlines() if line.startswith("| my_method | yours |"))
-    assert "| 0.50 |" in row and VERSIONS_MARK not in row and "my_method (yours)" not in err
+    assert "| 0.50 (n=1) |" in row and VERSIONS_MARK not in row and "my_method (yours)" not in err
 
 
 @pytest.mark.parametrize("bad", ["numpy>=2", "numpy == 2", "-e ."])

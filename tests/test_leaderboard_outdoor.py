@@ -189,7 +189,7 @@ def test_bad_env_kwargs_are_named(env_kwargs, error, message):
 
 
 def test_tiny_outdoor_tracks_score_band_means_and_share_the_drive(tmp_path):
-    from sfa_gym.leaderboard.results import FORMAT, load_results
+    from sfa_gym.leaderboard.results import FORMAT, SCHEMA_VERSION, load_results
     from sfa_gym.leaderboard.sweep import run_sweep
     from sfa_gym.leaderboard.table import write_table
     from sfa_gym.leaderboard.tracks import load_track
@@ -212,7 +212,7 @@ def test_tiny_outdoor_tracks_score_band_means_and_share_the_drive(tmp_path):
     assert [Path(p).parent.name for p in written] == ["outdoor_tiny", "outdoor_tiny_later"]
     paper, later = results["outdoor_tiny"], results["outdoor_tiny_later"]
     for result in (paper, later):
-        assert result["format"] == FORMAT and result["schema_version"] == 1
+        assert result["format"] == FORMAT and result["schema_version"] == SCHEMA_VERSION
         assert result["track"]["evaluation"] == "outdoor"
         assert result["score"]["n"] == 1 and result["score"]["higher_is_better"] is False
         (task,) = result["tasks"]

@@ -71,7 +71,7 @@ def test_your_results_are_shown_beside_the_reference(tmp_path, capsys):
     header = next(line for line in lines if line.startswith("| method | source |"))
     column = header.split(" | ").index("few_labels (quick)")
     yours = next(line for line in lines if line.startswith("| my_method | yours |"))
-    assert yours.split(" | ")[column] == "3.50 [0.32, 6.68]"
+    assert yours.split(" | ")[column] == "3.50 (n=2)"
     # the reference rows of the same track, from the committed file
     reference = [
         r
@@ -82,12 +82,12 @@ def test_your_results_are_shown_beside_the_reference(tmp_path, capsys):
     for r in reference:
         row = next(line for line in lines if line.startswith(f"| {r['method']['label']} | "))
         assert row.split(" | ")[1] == REFERENCE
-        assert row.split(" | ")[column].startswith(f"{r['score']['mean']:.2f} [")
+        assert row.split(" | ")[column] == f"{r['score']['mean']:.2f} (n=2)"  # two seeds
 
     capsys.readouterr()
     assert main(["leaderboard", "table", "--results", str(mine.parents[1]), "--no-reference"]) == 0
     alone = capsys.readouterr().out
-    assert "| my_method | yours | 3.50 [0.32, 6.68] |" in alone and "| reference |" not in alone
+    assert "| my_method | yours | 3.50 (n=2) |" in alone and "| reference |" not in alone
 
 
 def test_markdown_prints_the_table_and_writes_nothing(tmp_path, capsys):

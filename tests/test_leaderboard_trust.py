@@ -79,14 +79,14 @@ def test_a_correct_result_is_shown_unchanged(tmp_path, capsys):
     _write(tmp_path, _result("good"))
     status, out, err = _table(tmp_path, capsys)
     assert status == 0 and "skipped" not in err and "apart" not in err
-    assert _row(out, "good") == "| good | yours | 3.50 [0.32, 6.68] |"
+    assert _row(out, "good") == "| good | yours | 3.50 (n=2) |"
 
 
 def test_a_result_that_records_no_commit_is_shown(tmp_path, capsys):
     _write(tmp_path, {**_result("bare"), "provenance": {}})
     status, out, err = _table(tmp_path, capsys)
     assert status == 0 and "skipped" not in err
-    assert _row(out, "bare") == "| bare | yours | 3.50 [0.32, 6.68] |"
+    assert _row(out, "bare") == "| bare | yours | 3.50 (n=2) |"
 
 
 def test_an_edited_mean_is_refused_with_both_numbers(tmp_path, capsys):
@@ -103,7 +103,7 @@ def test_an_edited_mean_is_refused_with_both_numbers(tmp_path, capsys):
     nudged = _result("nudged")
     nudged["score"]["mean"] += 1e-12
     _write(tmp_path, nudged)
-    assert "| nudged | yours | 3.50 [0.32, 6.68] |" in _table(tmp_path, capsys)[1]
+    assert "| nudged | yours | 3.50 (n=2) |" in _table(tmp_path, capsys)[1]
 
 
 @pytest.mark.parametrize(
@@ -203,9 +203,9 @@ def test_a_quick_result_of_another_quick_size_gets_a_column_of_its_own(tmp_path,
         "few_labels other size (quick)",
         "few_labels size not recorded (quick)",
     ]
-    assert _row(out, "good") == "| good | yours | 3.50 [0.32, 6.68] | - | - |"
-    assert _row(out, "smaller") == "| smaller | yours | - | 3.50 [0.32, 6.68] | - |"
-    assert _row(out, "unknown") == "| unknown | yours | - | - | 3.50 [0.32, 6.68] |"
+    assert _row(out, "good") == "| good | yours | 3.50 (n=2) | - | - |"
+    assert _row(out, "smaller") == "| smaller | yours | - | 3.50 (n=2) | - |"
+    assert _row(out, "unknown") == "| unknown | yours | - | - | 3.50 (n=2) |"
     assert "'grid': 8" in err and "does not record its quick size" in err
 
 
@@ -222,9 +222,9 @@ def test_another_track_version_or_seed_set_gets_a_column_of_its_own(tmp_path, ca
         "few_labels seeds [100] (quick)",
         "few_labels v7 (quick)",
     ]
-    assert _row(out, "good") == "| good | yours | 3.50 [0.32, 6.68] | - | - |"
-    assert _row(out, "old") == "| old | yours | - | - | 9.25 [6.07, 12.43] |"
-    assert _row(out, "partial") == "| partial | yours | - | 1.00 | - |"
+    assert _row(out, "good") == "| good | yours | 3.50 (n=2) | - | - |"
+    assert _row(out, "old") == "| old | yours | - | - | 9.25 (n=2) |"
+    assert _row(out, "partial") == "| partial | yours | - | 1.00 (n=1) | - |"
     assert "- few_labels v7 (quick): track version 7; the track file is version 1" in out
     assert f"warning: {old}: track version 7; the track file is version 1" in err
     assert f"warning: {partial}: world seeds [100]; the track file's are [100, 101]" in err
@@ -315,6 +315,6 @@ def test_a_result_edited_consistently_after_it_was_written_is_refused(tmp_path, 
     path = _write(tmp_path, forged)
     status, out, err = _table(tmp_path, capsys)
     assert status == 0
-    assert _row(out, "honest") == "| honest | yours | 3.50 [0.32, 6.68] |"
+    assert _row(out, "honest") == "| honest | yours | 3.50 (n=2) |"
     assert "| forged |" not in out
     assert f"{path}: its content was changed after it was written" in err

@@ -32,14 +32,41 @@ def test_bad_lengths_are_refused(shortest, path):
         spl([1], shortest, path)
 
 
-def test_confidence_interval_brackets_the_mean_and_shrinks_with_more_episodes():
+@pytest.mark.parametrize("key", ["success", "spl"])
+def test_confidence_interval_brackets_the_mean_and_shrinks_with_more_episodes(key):
     rng = np.random.default_rng(1)
     few, many = rng.random(20) < 0.7, rng.random(2000) < 0.7
-    lo, hi = confidence_interval(few)
+    lo, hi = confidence_interval(few, key)
     assert lo < few.mean() < hi
-    lo2, hi2 = confidence_interval(many)
+    lo2, hi2 = confidence_interval(many, key)
     assert hi2 - lo2 < (hi - lo) / 3
-    assert confidence_interval(few) == (lo, hi)  # deterministic
+    assert confidence_interval(few, key) == (lo, hi)  # deterministic
+
+
+def test_success_interval_is_wilsons():
+    # Wilson's score interval of 7 successes in 10 trials, 95 %: (0.3968, 0.8922)
+    lo, hi = confidence_interval([1] * 7 + [0] * 3, "success")
+    assert (lo, hi) == pytest.approx((0.39678, 0.89221), abs=1e-5)
+    # and the closed form: (p + z^2/2n +- z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n)
+    z, n, p = 1.959963984540054, 10, 0.7
+    centre, half = p + z**2 / (2 * n), z * math.sqrt(p * (1 - p) / n + z**2 / (4 * n**2))
+    assert lo == pytest.approx((centre - half) / (1 + z**2 / n), rel=1e-9)
+    assert hi == pytest.approx((centre + half) / (1 + z**2 / n), rel=1e-9)
+
+
+@pytest.mark.parametrize("successes", [[1] * 12, [0] * 12, [1], [0]])
+def test_success_interval_stays_in_0_1_and_keeps_a_width_at_the_ends(successes):
+    lo, hi = confidence_interval(successes, "success")
+    assert 0.0 <= lo < hi <= 1.0
+    assert lo == 0.0 or hi == 1.0  # all one way: the interval reaches that end
+    assert (lo == 0.0) == (successes[0] == 0)
+
+
+def test_other_quantities_stay_within_their_values():
+    values = [0.0, 0.0, 0.9, 0.95, 1.0]
+    lo, hi = confidence_interval(values, "spl")
+    assert 0.0 <= lo < np.mean(values) < hi <= 1.0
+    assert confidence_interval([3.0], "steps") == (3.0, 3.0)
 
 
 def test_summary_averages_every_key():

@@ -97,12 +97,16 @@ def test_board_intervals_and_seconds_come_from_the_file():
         "track": "t",
         "track_version": 1,
         "method": "m",
-        "score": {"mean": 2.0, "ci95": [1.5, 2.5], "higher_is_better": False},
+        # the file's stored interval is of an older method: the table recomputes today's
+        "score": {"mean": 2.0, "ci95": [-0.5, 4.5], "higher_is_better": False},
+        "per_world_seed": {"100": 0.5, "101": 0.5, "102": 5.0},
         "task_seconds": [10.0, 20.0],
     }
-    files = [{"results": [record, {**record, "method": "n", "task_seconds": [None, 3.0]}]}]
-    assert "| `t` (1) | MAE % | **2.00** [1.50, 2.50] |" in board_table(
-        files, {"intervals": "1", "methods": "m"}
+    two = {**record, "method": "two", "per_world_seed": {"100": 1.5, "101": 2.5}}
+    files = [{"results": [record, {**record, "method": "n", "task_seconds": [None, 3.0]}, two]}]
+    # t: 2.0 +- 4.303 * 2.598 / sqrt(3) = 2.0 +- 6.45, clipped at MAE 0
+    assert "| `t` (1) | MAE % | **2.00** [0.00, 8.45] | **2.00** (n=2) |" in board_table(
+        files, {"intervals": "1", "methods": "m,two"}
     )
     from sfa_gym.report.formatters import quick_vs_full_table
 
@@ -111,7 +115,7 @@ def test_board_intervals_and_seconds_come_from_the_file():
         quick_vs_full_table([{"tracks": rows}], {}).splitlines()[2]
         == "| `t` | 0.80 | a > b | b > a |"
     )
-    seconds = board_seconds_table(files, {}).splitlines()
+    seconds = board_seconds_table(files, {"methods": "m,n"}).splitlines()
     assert seconds[2] == "| `t` | 15 | - |"  # the mean of a world seed; unrecorded: none
     assert seconds[3] == "| these tracks, min | 0 | 0 |"
 

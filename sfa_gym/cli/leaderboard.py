@@ -14,6 +14,8 @@ from typing import Annotated, Any, Literal
 
 import tyro
 
+from sfa_gym.intervals import format_interval
+
 __all__ = ["Leaderboard", "LeaderboardRun", "LeaderboardTable"]
 
 
@@ -153,9 +155,10 @@ def _print_results(paths: list[Path]) -> None:
     """A line per result file: its mean with the interval."""
     for path in paths:
         score = json.loads(path.read_text())["score"]
-        ci = score["ci95"]
-        interval = f" (95 % t-interval {ci[0]:.3f} .. {ci[1]:.3f})" if ci else ""
-        print(f"{path}: {score['mean']:.3f}{interval}")
+        interval = format_interval(score["ci95"], score["n"], digits=3)
+        # with too few seeds for an interval the count stands alone, else the method beside it
+        method = f" (95 %, {score['interval']})" if score["ci95"] else ""
+        print(f"{path}: {score['mean']:.3f} {interval}{method}")
 
 
 @contextlib.contextmanager
@@ -245,7 +248,7 @@ class LeaderboardPublish:
     results: Path = Path("results/leaderboard")
     """the results folder of the run (searched recursively)"""
     description: str = (
-        "Per track and method the mean score over the track's world seeds, the t-interval, each "
+        "Per track and method the mean score over the track's world seeds, its 95 % interval, each "
         "seed's score, the parts' means and the provenance of the result file. Localization: "
         "MAE % (lower is better); navigation: success rate."
     )

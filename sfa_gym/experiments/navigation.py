@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from sfa_gym._checks import check_int, check_world_seed
 from sfa_gym.experiments.report import check_out_folder
+from sfa_gym.intervals import format_interval
 from sfa_gym.protocols import navigation as protocol
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.protocols.slow_features import SlowFeatureMethod
@@ -280,11 +281,11 @@ def format_navigation_table(results: dict[str, Any]) -> str:
         for group in ("all", "interior"):
             for key in ("success", "spl"):
                 score = entry[group][key]
-                lo, hi = score["ci95"]
                 if score["mean"] is None:
                     cells.append("-")
                 else:
-                    cells.append(f"{score['mean']:.2f} ({lo:.2f}-{hi:.2f})")
+                    interval = format_interval(score["ci95"], entry[group]["episodes"])
+                    cells.append(f"{score['mean']:.2f} {interval}")
         episodes = f"{entry['all']['episodes']} ({entry['interior']['episodes']} interior)"
         lines.append(f"| {name} | " + " | ".join(cells) + f" | {episodes} |")
     return "\n".join(lines)

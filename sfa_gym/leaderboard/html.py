@@ -15,6 +15,7 @@ from html import escape
 from pathlib import Path
 from typing import Any
 
+from sfa_gym.intervals import format_interval
 from sfa_gym.leaderboard.results import REFERENCE, load_results, reference_folder
 from sfa_gym.leaderboard.table import Board, arrange, current_tracks, detail_tables, draw_chart
 
@@ -67,11 +68,7 @@ def _score_cell(result: dict[str, Any] | None) -> str:
     seeds = ", ".join(
         f"{task['world_seed']}: {task['scores']['score']:.3f}" for task in result["tasks"]
     )
-    interval = (
-        f"<br><small>{score['ci95'][0]:.2f} to {score['ci95'][1]:.2f}</small>"
-        if score["ci95"]
-        else ""
-    )
+    interval = f"<br><small>{format_interval(score['ci95'], score['n'])}</small>"
     return (
         f'<td data-value="{score["mean"]!r}" title="world seeds: {escape(seeds)}">'
         f"{score['mean']:.2f}{interval}</td>"
@@ -172,11 +169,12 @@ def results_page(folder: str | os.PathLike[str] | None = None) -> str:
         "# Leaderboard results",
         "",
         f"The reference results, read from `{_shown_path(folder)}/` ({named}) when this site "
-        "was built. Each cell is the mean score over the track's "
-        "scoring world seeds, with the Student-t 95 % interval across them below it "
-        "(none with one seed); hover a cell for each seed's score. Localization: MAE in % "
-        "of the coordinate range, mean of x and y (lower is better); navigation: success "
-        "rate (higher is better). Press a column's header to sort by it.",
+        "was built. Each cell is the mean score over the track's scoring world seeds, with "
+        "the Student-t 95 % interval across them below it, clipped to the score's range "
+        "(with fewer than three seeds, their number instead: n=2); hover a cell for each "
+        "seed's score. Localization: MAE in % of the coordinate range, mean of x and y "
+        "(lower is better); navigation: success rate (higher is better). Press a column's "
+        "header to sort by it.",
     ]
     tracks = current_tracks()  # results of another track version or seed set go in columns apart
     for quick, title in ((False, "The board"), (True, "The quick board")):

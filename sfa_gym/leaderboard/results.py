@@ -3,10 +3,10 @@ built from them is :mod:`sfa_gym.leaderboard.table`).
 
 A result file ``<results>/<track>/<method label>[.quick].json`` holds::
 
-    {"format": "sfa-gym-leaderboard-result", "schema_version": 1,
+    {"format": "sfa-gym-leaderboard-result", "schema_version": 2,
      "track": {...the track file's content..., "quick": bool, "size_params": {...}},
      "method": {"name", "path", "sha256", "args"},
-     "score": {"mean", "ci95": [lo, hi] | null, "interval": "t", "n", "std",
+     "score": {"mean", "ci95": [lo, hi] | null, "interval": "t-clipped", "n", "std",
                "higher_is_better"},
      "tasks": [{"world_seed", "fit_world_seed", "scores": {...}, "seconds", "phases"}, ...],
      "provenance": {"sfa_gym_version", "git_commit", "python", "platform", "machine",
@@ -19,9 +19,13 @@ bits beside them (:func:`~sfa_gym.lock.cpu_numerics`); a navigation task's score
 results whose versions differ from the lock or whose fingerprints differ from the reference
 result's (:mod:`sfa_gym.leaderboard.checks`).
 
-The interval is a Student-t 95 % interval of the mean across the scoring world seeds (with one
-seed there is none: ``null``). Scores are computed per world seed, so the result does not
-depend on which backend ran which seed.
+The interval is a Student-t 95 % interval of the mean across the scoring world seeds, clipped
+to the score's range (a success rate in [0, 1], an MAE >= 0), with fewer than three seeds none:
+``null`` (:func:`~sfa_gym.leaderboard.verify.summarize`). Results of schema version 1 record
+``"interval": "t"``, the unclipped interval from two seeds on; they are still read
+(:data:`READ_SCHEMA_VERSIONS`), checked by the interval they record and shown with today's.
+Scores are computed per world seed, so the result does not depend on which backend ran which
+seed.
 
 The committed reference results (:func:`reference_folder`, ``published/leaderboard/``) may also
 be *gathered* files: ``{"description", "results": [...]}`` with one summary per track and method
@@ -62,6 +66,7 @@ from sfa_gym.leaderboard.verify import (
 
 __all__ = [
     "FORMAT",
+    "READ_SCHEMA_VERSIONS",
     "REFERENCE",
     "ROUND_OFF",
     "SCHEMA_VERSION",
@@ -80,7 +85,10 @@ __all__ = [
 ]
 
 FORMAT = "sfa-gym-leaderboard-result"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+"""The schema version of new result files: 2 records the clipped interval (``"t-clipped"``)."""
+READ_SCHEMA_VERSIONS = (1, 2)
+"""The schema versions read: 1 records the unclipped Student-t interval (``"t"``)."""
 YOURS = "yours"
 """The source of the results a user ran (the results folder of ``sfa-gym leaderboard``)."""
 REFERENCE = "reference"
@@ -357,10 +365,10 @@ def _read_file(path: Path, source: str, skipped: list[str] | None) -> list[dict[
             f"{path} is neither a result file (format {FORMAT!r}) nor a gathered file (an "
             "object with a 'results' list)"
         )
-    if data.get("schema_version") != SCHEMA_VERSION:
+    if data.get("schema_version") not in READ_SCHEMA_VERSIONS:
         raise ResultError(
             f"{path}: result schema_version {data.get('schema_version')!r}; this sfa_gym "
-            f"reads {SCHEMA_VERSION}"
+            f"reads {list(READ_SCHEMA_VERSIONS)}"
         )
     check_result(data, str(path))
     track, quick, label = data["track"]["name"], data["track"]["quick"], data["method"]["label"]

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
+from sfa_gym.intervals import format_interval
 from sfa_gym.leaderboard.results import REFERENCE, YOURS, load_results, mean_parts
 
 if TYPE_CHECKING:
@@ -173,9 +174,7 @@ def arrange(results: list[dict[str, Any]], tracks: Mapping[str, Track] | None = 
 
 
 def _cell(score: dict[str, Any]) -> str:
-    lo_hi = score["ci95"]
-    interval = f" [{lo_hi[0]:.2f}, {lo_hi[1]:.2f}]" if lo_hi else ""
-    return f"{score['mean']:.2f}{interval}"
+    return f"{score['mean']:.2f} {format_interval(score['ci95'], score['n'])}"
 
 
 def _parts_tables(board: Board) -> list[str]:
@@ -212,14 +211,15 @@ class CellMarks(Protocol):
 
 def markdown_table(board: Board, marks: CellMarks | None = None) -> str:
     """The markdown of ``LEADERBOARD.md``: the scores (a row per method and source, a column
-    per track; a cell is the mean over the world seeds with its t-interval, with its ``marks``:
+    per track; a cell is the mean over the world seeds with its interval, with its ``marks``:
     see :func:`~sfa_gym.leaderboard.checks.check_board`), the parts of the outdoor tracks'
     scores, and each track's version, world seeds and commit."""
     lines = [
         "# Leaderboard",
         "",
         "Mean over the scoring world seeds, with the Student-t 95 % interval across them in "
-        "brackets. Localization: MAE in % of the coordinate range, mean of x and y (lower is "
+        "brackets, clipped to the score's range; with fewer than three seeds, their number "
+        "instead (n=2). Localization: MAE in % of the coordinate range, mean of x and y (lower is "
         "better); navigation: success rate (higher is better). Source: yours (your results "
         "folder) or reference (the committed reference results).",
         "",
@@ -258,7 +258,7 @@ def detail_tables(board: Board) -> list[str]:
 
 def draw_chart(board: Board) -> Figure:
     """The chart of ``board``: one panel per track (four a row), a bar per row (the mean, with
-    the t-interval) and a dot per world seed; the axis follows the scores, so an interval wider
+    the interval) and a dot per world seed; the axis follows the scores, so an interval wider
     than them is cut at the panel's edge."""
     import matplotlib.pyplot as plt
 
@@ -281,7 +281,7 @@ def draw_chart(board: Board) -> Figure:
         gray = [board.several_sources and row[1] == REFERENCE for row in rows]
         colors = ["tab:gray" if g else "tab:blue" for g in gray]
         ax.bar(range(len(rows)), means, yerr=err, capsize=3, color=colors, alpha=0.8)
-        # each world seed's score: with few seeds the t-interval is wide, the points say why
+        # each world seed's score: with few seeds the interval is wide or none, the points say why
         points = [
             [task["scores"]["score"] for task in board.cells[t][row]["tasks"]] for row in rows
         ]

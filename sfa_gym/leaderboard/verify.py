@@ -1,9 +1,9 @@
 """The checks of a leaderboard result before the table shows it: every field the table reads,
-of the right type, and the score's summary (:func:`summarize`: the mean, the Student-t 95 %
-interval, ``n``) recomputed from the seeds' scores. A stored summary that differs from the
-recomputed one beyond round-off (:data:`ROUND_OFF`) has been edited or damaged, and since it is
-not known which part changed, the result is refused rather than shown with a corrected number.
-Reading files, and a file's place against its content, are
+of the right type, and the score's summary (:func:`summarize`: the mean, the 95 % interval by
+the method the result records, ``n``) recomputed from the seeds' scores. A stored summary that
+differs from the recomputed one beyond round-off (:data:`ROUND_OFF`) has been edited or
+damaged, and since it is not known which part changed, the result is refused rather than shown
+with a corrected number. Reading files, and a file's place against its content, are
 :mod:`sfa_gym.leaderboard.results`'s.
 """
 
@@ -17,11 +17,27 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["ROUND_OFF", "ResultError", "check_result", "content_sha256", "summarize"]
+from sfa_gym.intervals import MIN_SEEDS, t_interval
+
+__all__ = [
+    "INTERVAL",
+    "INTERVALS",
+    "ROUND_OFF",
+    "ResultError",
+    "check_result",
+    "content_sha256",
+    "score_range",
+    "summarize",
+]
 
 ROUND_OFF = 1e-6
 """The relative difference allowed between a stored summary and the one recomputed from the
 seeds' scores: gathered files keep ten digits of each; an edit of a shown digit is far beyond."""
+
+INTERVALS = ("t", "t-clipped")
+"""The interval methods a result's ``score.interval`` may record (see :func:`summarize`)."""
+INTERVAL = "t-clipped"
+"""The interval method of new results and of every shown score."""
 
 
 class ResultError(ValueError):
@@ -29,24 +45,42 @@ class ResultError(ValueError):
     is wrong with it."""
 
 
-def summarize(values: Sequence[float], higher_is_better: bool) -> dict[str, Any]:
-    """Mean and Student-t 95 % interval of per-world-seed ``values``."""
-    from scipy import stats
+def score_range(higher_is_better: bool) -> tuple[float, float]:
+    """The range of a leaderboard score: a navigation track's success rate (higher is better)
+    lies in [0, 1], a localization track's MAE (lower is better) in [0, inf). Each kind of track
+    has its one direction (:data:`~sfa_gym.leaderboard.evaluate.HIGHER_IS_BETTER`), which every
+    result (gathered entries too) records, so the direction names the range."""
+    return (0.0, 1.0) if higher_is_better else (0.0, math.inf)
 
+
+def summarize(
+    values: Sequence[float], higher_is_better: bool, interval: str = INTERVAL
+) -> dict[str, Any]:
+    """Mean and 95 % interval of per-world-seed ``values`` by the method ``interval``
+    (:data:`INTERVALS`): ``"t-clipped"``, what new results record, Student's t clipped to the
+    :func:`score_range`, none with fewer than :data:`~sfa_gym.intervals.MIN_SEEDS` seeds;
+    ``"t"``, what results of schema version 1 record, Student's t as it falls, from two seeds.
+
+    Raises:
+        ValueError: ``interval`` is not one of :data:`INTERVALS`.
+    """
+    if interval not in INTERVALS:
+        raise ValueError(f"interval {interval!r}; expected one of {list(INTERVALS)}")
     x = np.asarray(values, dtype=np.float64)
-    mean = float(x.mean())
     out: dict[str, Any] = {
-        "mean": mean,
+        "mean": float(x.mean()),
         "ci95": None,
-        "interval": "t",
+        "interval": interval,
         "n": int(len(x)),
         "std": None,
         "higher_is_better": higher_is_better,
     }
     if len(x) > 1:
-        std = float(x.std(ddof=1))
-        half = float(stats.t.ppf(0.975, len(x) - 1)) * std / math.sqrt(len(x))
-        out.update(std=std, ci95=[mean - half, mean + half])
+        out["std"] = float(x.std(ddof=1))
+    if interval == "t" and len(x) > 1:
+        out["ci95"] = list(t_interval(x))
+    elif interval == "t-clipped" and len(x) >= MIN_SEEDS:
+        out["ci95"] = list(t_interval(x, *score_range(higher_is_better)))
     return out
 
 
@@ -109,11 +143,13 @@ def content_sha256(result: dict[str, Any]) -> str:
 
 def check_result(result: dict[str, Any], where: str) -> dict[str, Any]:
     """``result`` (a result file's content or a gathered entry's, :func:`_from_gathered`)
-    checked field by field, its score's mean, interval, ``n`` and ``std`` recomputed from its
-    seeds' scores (:func:`summarize`).
+    checked field by field, its score's mean, interval and ``n`` recomputed from its seeds'
+    scores by the interval method it records (:func:`summarize`), and its ``score`` replaced by
+    the summary by today's method (:data:`INTERVAL`) for showing.
 
     Raises:
-        ResultError: a field is missing or of a wrong type, a world seed repeats, or the stored
+        ResultError: a field is missing or of a wrong type, a world seed repeats, a seed's
+            score leaves the :func:`score_range`, the interval method is unknown, or the stored
             mean, interval or ``n`` differ from the recomputed ones beyond :data:`ROUND_OFF`
             (both named, with ``where``).
     """
@@ -151,7 +187,20 @@ def check_result(result: dict[str, Any], where: str) -> dict[str, Any]:
     versions = result["provenance"].get("versions")
     if versions is not None and not isinstance(versions, dict):
         raise ResultError(f"{where}: 'provenance.versions' is {versions!r}; expected an object")
-    stored, fresh = result["score"], summarize(values, higher)
+    low, high = score_range(higher)
+    outside = [(s, v) for s, v in zip(seeds, values, strict=True) if not low <= v <= high]
+    if outside:
+        raise ResultError(
+            f"{where}: world seed {outside[0][0]}'s score {outside[0][1]!r} leaves the score's "
+            f"range [{low}, {high}] ({'success rate' if higher else 'MAE'})"
+        )
+    method = _get(where, result, "score.interval", "text")
+    if method not in INTERVALS:
+        raise ResultError(
+            f"{where}: 'score.interval' is {method!r}; expected one of {list(INTERVALS)}"
+        )
+    # checked by the method the result records (older results: "t"), shown by today's
+    stored, fresh = result["score"], summarize(values, higher, method)
     differ = [
         f"score.{k} is {stored.get(k)!r} but its seeds' scores give {fresh[k]!r}"
         for k in ("mean", "n", "ci95")
@@ -159,5 +208,7 @@ def check_result(result: dict[str, Any], where: str) -> dict[str, Any]:
     ]
     if differ:
         raise ResultError(f"{where}: {'; '.join(differ)}")
-    result["score"] = {**stored, **fresh}  # shown: the recomputed numbers, never the stored
+    # shown: the numbers recomputed by today's method, never the stored ones, so that every
+    # interval in a table is of one kind and within the score's range
+    result["score"] = {**stored, **summarize(values, higher)}
     return result

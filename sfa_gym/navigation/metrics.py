@@ -7,6 +7,9 @@ to the goal and length ``p`` of the path the agent took:
 - ``SPL = S * l / max(p, l)``;
 - ``SoftSPL = max(0, 1 - d / l) * l / max(p, l)``, with ``d`` the geodesic distance to the goal
   at the end: progress towards the goal instead of binary success.
+
+The success rate's interval is Wilson's, the others' the percentile bootstrap
+(:func:`confidence_interval`).
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from sfa_gym.intervals import bootstrap_interval, wilson
 
 __all__ = ["confidence_interval", "soft_spl", "spl", "summarize_episodes"]
 
@@ -57,22 +62,19 @@ def soft_spl(
     return np.maximum(0.0, 1.0 - d / shortest) * shortest / np.maximum(path, shortest)
 
 
-def confidence_interval(
-    values: ArrayLike, level: float = 0.95, n_resamples: int = 2000, seed: int = 0
-) -> tuple[float, float]:
-    """Percentile bootstrap interval of the mean (deterministic: a fixed resampling seed)."""
+def confidence_interval(values: ArrayLike, key: str) -> tuple[float, float]:
+    """The 95 % interval of the mean of one per-episode quantity ``key``: Wilson's for
+    ``success`` (0 or 1 per episode), the percentile bootstrap for the others
+    (:mod:`sfa_gym.intervals`); both stay within the quantity's range."""
     values = np.asarray(values, dtype=np.float64)
-    if values.size == 0:
-        return (float("nan"), float("nan"))
-    rng = np.random.default_rng(seed)
-    means = values[rng.integers(values.size, size=(n_resamples, values.size))].mean(axis=1)
-    tail = (1.0 - level) / 2
-    low, high = np.quantile(means, [tail, 1.0 - tail])
-    return float(low), float(high)
+    if key == "success":
+        return wilson(int(values.sum()), values.size)
+    return bootstrap_interval(values)
 
 
 def summarize_episodes(episodes: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """Mean and 95 % interval of each of :data:`EPISODE_KEYS` over ``episodes``.
+    """Mean and 95 % interval (:func:`confidence_interval`) of each of :data:`EPISODE_KEYS`
+    over ``episodes``.
 
     Each episode maps those keys to numbers (``success`` may be a bool). Without episodes (say,
     no interior pair among a few) a score has no mean: ``None`` and ``[None, None]``, which the
@@ -82,7 +84,7 @@ def summarize_episodes(episodes: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     for key in EPISODE_KEYS:
         values = np.array([float(e[key]) for e in episodes])
         summary[key] = (
-            {"mean": float(values.mean()), "ci95": list(confidence_interval(values))}
+            {"mean": float(values.mean()), "ci95": list(confidence_interval(values, key))}
             if values.size
             else {"mean": None, "ci95": [None, None]}
         )

@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from sfa_gym.intervals import format_interval
+
 __all__ = [
     "board_parts_table",
     "board_seconds_table",
@@ -66,8 +68,8 @@ def board_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str
     best of each row in bold (lowest MAE, highest success).
 
     Options: ``tracks=a,b`` and ``methods=a,b`` choose and order rows and columns (default:
-    all, as they come in the file); ``intervals=1`` adds each mean's 95 % t-interval across the
-    world seeds, ``[lo, hi]`` (as ``sfa-gym leaderboard table`` prints it).
+    all, as they come in the file); ``intervals=1`` adds each mean's 95 % interval across the
+    world seeds, ``[lo, hi]`` or ``(n=2)`` (:func:`_interval`).
     """
     records = _records(files, "board")
     tracks = _split(options.get("tracks")) or list(dict.fromkeys(r["track"] for r in records))
@@ -90,12 +92,20 @@ def board_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str
             else:
                 text = f"{r['score']['mean']:.2f}"
                 bold = f"**{text}**" if f"{best:.2f}" == text else text
-                interval = r["score"].get("ci95") if options.get("intervals") == "1" else None
-                row.append(
-                    bold if interval is None else f"{bold} [{interval[0]:.2f}, {interval[1]:.2f}]"
-                )
+                row.append(f"{bold} {_interval(r)}" if options.get("intervals") == "1" else bold)
         lines.append(_row(row))
     return "\n".join(lines)
+
+
+def _interval(record: dict[str, Any]) -> str:
+    """The 95 % interval of a board record's mean, ``[lo, hi]`` or ``(n=2)``, recomputed from
+    its seeds' scores by today's method (as ``sfa-gym leaderboard table`` shows it), whichever
+    method the file recorded."""
+    from sfa_gym.leaderboard.verify import summarize
+
+    values = list(record["per_world_seed"].values())
+    score = summarize(values, record["score"]["higher_is_better"])
+    return format_interval(score["ci95"], score["n"])
 
 
 def quick_vs_full_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
