@@ -55,7 +55,7 @@ def test_ablation_switches_reach_the_env_kwargs():
         ({"start_hour": 24.0}, r"start_hour must lie in \[0, 24\)"),
         ({"later_hours": float("nan")}, "later_hours must be a finite number"),
         ({"train_frames": 5}, "train_frames must be >= 10"),
-        ({"frame_dt": 0.0}, "frame_dt must be a positive number"),
+        ({"frame_dt": 0.0}, "frame_dt must be a positive number of seconds"),
         ({"spacing": -1.0}, "spacing must be a positive number"),
         ({"panorama": (60, 601)}, "601"),
         ({"camera": "fisheye"}, "camera must be one of"),

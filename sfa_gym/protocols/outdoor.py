@@ -127,10 +127,14 @@ class Config:
             check_positive_int(name, getattr(self, name))
         if self.eval_rotations is not None:
             check_positive_int("eval_rotations", self.eval_rotations)
-        for name in ("frame_dt", "spacing", "test_spacing"):
+        for name, unit in (
+            ("frame_dt", "seconds"),
+            ("spacing", "metres"),
+            ("test_spacing", "metres"),
+        ):
             value = getattr(self, name)
             if not is_number(value) or not math.isfinite(value) or value <= 0:
-                raise ValueError(f"{name} must be a positive number of metres, got {value!r}")
+                raise ValueError(f"{name} must be a positive number of {unit}, got {value!r}")
         for name in ("start_hour", "later_hours"):
             value = getattr(self, name)
             if not is_number(value) or not math.isfinite(value):
