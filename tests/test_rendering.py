@@ -158,9 +158,21 @@ def test_metadata_names_both_render_modes_and_the_step_rate(env_id, control_dt):
 def test_human_mode_without_a_display_fails_at_construction_saying_so(env_id, monkeypatch):
     monkeypatch.setenv("DISPLAY", "")
     monkeypatch.setenv("WAYLAND_DISPLAY", "")
-    monkeypatch.delenv("SDL_VIDEODRIVER", raising=False)
+    monkeypatch.setenv("SDL_VIDEODRIVER", "x11")  # names the display it lacks
     with pytest.raises(NoWindowError, match=r"no display \(DISPLAY .*xvfb-run.*rgb_array"):
         gym.make(env_id, render_mode="human")
+
+
+def test_human_mode_on_a_display_without_a_server_says_so_at_the_first_frame(monkeypatch):
+    pytest.importorskip("pygame")
+    monkeypatch.setenv("DISPLAY", ":4242")  # no X server listens there
+    monkeypatch.delenv("SDL_VIDEODRIVER", raising=False)
+    env = OmniRoverEnv(panorama=SMALL, render_mode="human", render_size=64)
+    try:
+        with pytest.raises(NoWindowError, match="':4242'"):
+            env.reset(seed=0)
+    finally:
+        env.close()
 
 
 def test_human_mode_without_pygame_names_the_extra(monkeypatch):

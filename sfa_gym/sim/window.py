@@ -28,13 +28,15 @@ class NoWindowError(RuntimeError):
 def _display_missing() -> str | None:
     """Why no window can open on this machine's display, or None when one can.
 
-    On Linux and the BSDs a window needs an X11 or Wayland display; a chosen SDL video driver
-    (``SDL_VIDEODRIVER``, e.g. ``dummy`` for tests) is taken as the user's decision. macOS and
-    Windows always have their own display.
+    On Linux and the BSDs a window needs an X11 or Wayland display; another SDL video driver
+    chosen in ``SDL_VIDEODRIVER`` (e.g. ``dummy`` for tests, ``kmsdrm``) is taken as the user's
+    decision. macOS and Windows always have their own display.
     """
     if not sys.platform.startswith(("linux", "freebsd", "openbsd", "netbsd")):
         return None
-    if any(os.environ.get(name) for name in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER")):
+    if os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"):
+        return None
+    if os.environ.get("SDL_VIDEODRIVER", "x11") not in ("x11", "wayland"):
         return None
     return (
         "no display (DISPLAY and WAYLAND_DISPLAY are empty): run it on a desktop, over "
@@ -75,6 +77,8 @@ class Window:
         title: the window's caption.
         fps: frames per second; each :meth:`show` waits until its frame's time has come, so an
             episode plays at the speed of simulated time.
+
+    pygame has one display per process: envs in human mode in one process share its window.
     """
 
     def __init__(self, title: str, fps: float) -> None:
@@ -96,8 +100,20 @@ class Window:
             # whose context fights MuJoCo's offscreen ones in this thread (an X error,
             # BadAccess in GLXMakeCurrent, kills the process on Mesa).
             os.environ.setdefault("SDL_FRAMEBUFFER_ACCELERATION", "0")
-            pygame.display.init()
-            self._screen = pygame.display.set_mode((width, height))
+            chosen = os.environ.get("SDL_VIDEODRIVER")
+            try:
+                pygame.display.init()
+                driver = pygame.display.get_driver()
+                # when no display answers, SDL falls back to a driver without windows
+                if chosen is None and driver in ("offscreen", "dummy"):
+                    raise pygame.error(f"SDL reached no display and fell back to {driver!r}")
+                self._screen = pygame.display.set_mode((width, height))
+            except pygame.error as error:  # e.g. DISPLAY names no running server
+                pygame.display.quit()
+                display = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+                raise NoWindowError(
+                    f"render_mode='human' could not open a window on display {display!r}: {error}"
+                ) from error
             pygame.display.set_caption(self.title)
             self._clock = pygame.time.Clock()
         for event in pygame.event.get():  # a window that handles no events stops responding
