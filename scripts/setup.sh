@@ -6,8 +6,8 @@
 #
 #   bash scripts/setup.sh          the library and its command line (sfa-gym)
 #   bash scripts/setup.sh test     also the test dependencies (pytest, hypothesis,
-#                                  stable-baselines3, MDP, Ray, the docs site's MkDocs and
-#                                  Selenium) and Debian's chromium and chromium-driver, in
+#                                  stable-baselines3, MDP, Ray, pygame, the docs site's
+#                                  MkDocs and Selenium) and Debian's chromium and chromium-driver, in
 #                                  which the tests open the docs' leaderboard page
 set -euo pipefail
 cd "$(dirname "$0")/.."

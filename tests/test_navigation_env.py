@@ -35,9 +35,10 @@ def _position_field(env_id: str = "sfa_gym/OmniRoverNav-v0") -> FeatureField:
 
 
 @pytest.mark.parametrize("env_id", NAV_ENV_IDS[:2])
-def test_gymnasium_and_sb3_checkers_pass(env_id):
+def test_gymnasium_and_sb3_checkers_pass(env_id, monkeypatch):
     from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")  # the checker also opens a "human" window
     env = gym.make(env_id)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # SB3 recommends a [-1, 1] action box; ours is physical
@@ -49,7 +50,8 @@ def test_gymnasium_and_sb3_checkers_pass(env_id):
     env.close()
 
 
-def test_checkers_pass_in_feature_field_mode():
+def test_checkers_pass_in_feature_field_mode(monkeypatch):
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")  # the checker also opens a "human" window
     env = gym.make("sfa_gym/OmniRoverNav-v0", feature_field=_position_field())
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

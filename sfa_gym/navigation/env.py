@@ -109,6 +109,13 @@ class OmniRoverNavEnv(OmniRoverEnv):
     ``range_rays`` horizontal rays spread over ``range_fov_deg`` around the heading, cut at
     ``range_max``; MuJoCo's ray cast, the one its rangefinder sensors use).
 
+    ## Rendering
+
+    As in :class:`~sfa_gym.sim.env.OmniRoverEnv` (``render_mode`` "rgb_array" or "human"),
+    with the goal drawn on the top-down view (a green disc of ``success_radius``, a dark green
+    line along the goal's heading) and the rover's path since ``reset`` (a yellow line). The
+    marks are in ``render()``'s picture only, never in an observation.
+
     ## Arguments
 
     Those of :class:`~sfa_gym.sim.env.OmniRoverEnv`, and:
@@ -182,6 +189,8 @@ class OmniRoverNavEnv(OmniRoverEnv):
         )
         self.feature_field = self._load_field(feature_field)
         self.odometry = WheelOdometry(self.rover.wheel_radius, self.rover.effective_track)
+        self._goal: tuple[float, float, float] | None = None  # drawn by reset
+        self._path: list[tuple[float, float]] = []  # the rover's positions since reset
 
         m = self.model
         self._wheel_qpos = [int(m.joint(f"rover_wheel_{w}").qposadr[0]) for w in WHEELS]
@@ -394,7 +403,11 @@ class OmniRoverNavEnv(OmniRoverEnv):
         self._collisions = 0
         self._was_touching = self._touching()
         self._xy = self._pose()[:2]
-        return self._observation(panorama, *self._start[:2]), self._nav_info(*self._pose())
+        self._path = [self._xy]
+        observation = self._observation(panorama, *self._start[:2])
+        info = self._nav_info(*self._pose())
+        self._show()
+        return observation, info
 
     def step(
         self, action: NDArray[np.float32]
@@ -415,6 +428,7 @@ class OmniRoverNavEnv(OmniRoverEnv):
 
         x, y, yaw = self._pose()
         self._xy = x, y
+        self._path.append(self._xy)
         self._path_length += math.hypot(x - x0, y - y0)
         self.odometry.update(self._wheel_angles())
         touching = self._touching()
@@ -434,4 +448,12 @@ class OmniRoverNavEnv(OmniRoverEnv):
             gl.check_usable()
             panorama = self._camera.render(self.data)
         obs = self._observation(panorama, x, y)
-        return obs, float(reward), terminated, False, self._nav_info(x, y, yaw)
+        info = self._nav_info(x, y, yaw)
+        self._show()
+        return obs, float(reward), terminated, False, info
+
+    def _marks(self) -> dict[str, Any]:
+        """The rover's path since reset and the goal (a disc of ``success_radius``)."""
+        if self._goal is None:
+            return {}
+        return {"path": self._path, "goal": self._goal, "goal_radius": self.success_radius}

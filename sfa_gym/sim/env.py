@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym._checks import check_positive
 from sfa_gym.sim import gl
 
 gl.configure()
@@ -22,6 +23,8 @@ from sfa_gym.sim.camera import MirrorCamera, MirrorSpec, PanoramaSpec  # noqa: E
 from sfa_gym.sim.camera.renderer import OmniCamera  # noqa: E402
 from sfa_gym.sim.camera.sensor import Sensor, SensorSpec, resolve_sensor  # noqa: E402
 from sfa_gym.sim.rover import WHEELS, RoverSpec, rover_mjcf, yaw_of_quat  # noqa: E402
+from sfa_gym.sim.view import TopDownView  # noqa: E402
+from sfa_gym.sim.window import Window, check_window  # noqa: E402
 from sfa_gym.sim.worlds import WorldSpec, build_world, load_world_spec  # noqa: E402
 from sfa_gym.sim.worlds.dynamics import (  # noqa: E402
     Dynamics,
@@ -40,14 +43,6 @@ CAMERAS = ("cylindrical", "mirror", "mirror_circular")
 panorama, or the mirror camera's circular image."""
 _SETTLE_SECONDS = 1.0
 _DAY_SECONDS = 86400.0
-
-
-def _positive(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"{name} must be a number, got {value!r}")
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    return float(value)
 
 
 def _from_preset(name: str, value: Any, presets: dict[str, Any], cls: type) -> Any:
@@ -154,7 +149,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     * ``rover`` (None): a ``RoverSpec`` (geometry, masses, drive, camera mast) or a preset
       name: "default" (None: a rigid mast) or "outdoor" (a sprung mast that pitches and rolls
       with the rover's accelerations, as the paper's mirror did at turning points).
-    * ``render_mode`` (None): None or "rgb_array" (a top-down view of the arena).
+    * ``render_mode`` (None): None, "rgb_array" or "human" (see Rendering).
     * ``render_size`` (256): side of the square top-down render, pixels.
     * ``camera`` ("cylindrical"): the observation: the cylindrical panorama; "mirror", the
       mirror camera's circular image unwarped to a panorama; or "mirror_circular", the
@@ -179,6 +174,14 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     (:data:`sfa_gym.sim.gl.MAX_FRAMEBUFFER_SIDE` pixels a side) is refused here, with the size
     and the limit.
 
+    ## Rendering
+
+    ``"rgb_array"``: ``render()`` returns the arena from straight above (image up is world +y;
+    ``env.view.pixel`` maps world points to pixels). ``"human"`` shows it in ``env.window`` after
+    each ``reset`` and ``step``, at ``metadata["render_fps"]`` (1 / ``control_dt``); it needs a
+    display and pygame (``pip install 'sfa-gym[human]'``), else construction names what is
+    missing. Rendering never changes an observation; the same seed gives the same pictures.
+
     ## Vector envs
 
     Rendering contexts are created on the first ``reset``, never in ``__init__``, so
@@ -193,7 +196,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     * v0: initial version.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
 
     def __init__(
         self,
@@ -240,19 +243,18 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
             # what the mast's cameras render, before the mirror's resampling
             panorama = mirror.view_spec()
         self.panorama = panorama
-        self.v_max = _positive("v_max", v_max)
-        self.w_max = _positive("w_max", w_max)
-        self.control_dt = _positive("control_dt", control_dt)
+        self.v_max = check_positive("v_max", v_max)
+        self.w_max = check_positive("w_max", w_max)
+        self.control_dt = check_positive("control_dt", control_dt)
         self.rover = _from_preset("rover", rover, _ROVER_PRESETS, RoverSpec)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, "
                 f"got {render_mode!r}"
             )
+        if render_mode == "human":
+            check_window()  # fail here, not deep inside the first step
         self.render_mode = render_mode
-        if isinstance(render_size, bool) or not isinstance(render_size, int) or render_size < 1:
-            raise ValueError(f"render_size must be a positive int, got {render_size!r}")
-        gl.check_framebuffer(render_size, render_size, f"render_size={render_size}")
         self.render_size = render_size
 
         self.world_spec = world if isinstance(world, WorldSpec) else load_world_spec(world)
@@ -268,12 +270,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         self.layout = built.layout
         self.model = mujoco.MjModel.from_xml_string(self.mjcf)
         self.data = mujoco.MjData(self.model)
-        # the top-down renderer draws into the model's offscreen buffer
-        vis = self.model.vis.global_
-        vis.offwidth, vis.offheight = (
-            max(vis.offwidth, render_size),
-            max(vis.offheight, render_size),
-        )
+        self.view = TopDownView(self.model, render_size)
         timestep = float(self.model.opt.timestep)
         self.frame_skip = round(self.control_dt / timestep)
         if self.frame_skip < 1 or abs(self.frame_skip * timestep - self.control_dt) > 1e-9:
@@ -282,6 +279,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
                 f"got {control_dt!r}"
             )
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.control_dt}
+        self.window = Window(f"sfa_gym: {self.world_spec.name}", self.metadata["render_fps"])
 
         joint = self.model.joint("rover_root")
         self._qpos0 = int(joint.qposadr[0])
@@ -295,7 +293,6 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
             if self.mirror is None
             else MirrorCamera(self.model, self.mirror)
         )
-        self._renderer: mujoco.Renderer | None = None
         self._dynamics = (
             None
             if self.dynamics is None
@@ -458,7 +455,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
             self._dynamics.apply(self.data, self._clock, self._sun_time)
             mujoco.mj_forward(self.model, self.data)
         gl.check_usable()
-        return self._observe(None), self._info()
+        observation, info = self._observe(None), self._info()
+        self._show()
+        return observation, info
 
     def _start_clock(self, hours: Any, restart: bool) -> None:
         """Set the clock to ``hours`` (time of day), or to the start hour on the first reset
@@ -521,28 +520,31 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
             self._dynamics.apply(self.data, self._clock, self._sun_time)
         mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
         gl.check_usable()
-        return self._observe(self.control_dt), 0.0, False, False, self._info()
+        observation, info = self._observe(self.control_dt), self._info()
+        self._show()
+        return observation, 0.0, False, False, info
 
     def render(self) -> NDArray[np.uint8] | None:
-        """The top-down view of the arena, ``(render_size, render_size, 3)`` uint8, when
-        ``render_mode == "rgb_array"``; None otherwise."""
+        """The top-down view with :meth:`_marks`, ``(render_size, render_size, 3)`` uint8, for
+        ``"rgb_array"``; for ``"human"`` shown in the window, and None returned."""
         if self.render_mode is None:
-            gym.logger.warn(
-                "render() was called without a render_mode; pass render_mode='rgb_array'"
-            )
+            gym.logger.warn("render() was called without a render_mode: pass 'rgb_array'")
             return None
-        gl.check_usable()
-        if self._renderer is None:
-            size = self.render_size
-            # a driver of this process may have reported a smaller limit than the constant
-            gl.check_framebuffer(size, size, f"render_size={size}")
-            gl.load_llvm_users()
-            self._renderer = mujoco.Renderer(self.model, size, size)
-        self._renderer.update_scene(self.data, camera="overhead")
-        return self._renderer.render()
+        frame = self.view.render(self.data, **self._marks())
+        if self.render_mode == "human":
+            self.window.show(frame)
+            return None
+        return frame
+
+    def _marks(self) -> dict[str, Any]:
+        """What :meth:`render` draws on the arena (keywords of ``TopDownView.render``)."""
+        return {}
+
+    def _show(self) -> None:  # human mode shows each state that reset and step reach
+        if self.render_mode == "human":
+            self.render()
 
     def close(self) -> None:
         self._camera.close()
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        self.view.close()
+        self.window.close()
