@@ -259,3 +259,16 @@ def test_wrong_features_are_refused_naming_the_plugin(tmp_path, features, messag
         isolated.fit(_views())
         with pytest.raises(PluginError, match=f"hostile: transform\\(views\\).*{message}"):
             isolated.transform(_views())
+
+
+def test_each_plugin_gets_a_worker_of_its_own_started_ahead():
+    from sfa_gym.sandbox import process
+
+    with load_method(BAND_MEANS) as first:
+        (spare,) = [p.pid for p, _ in process._spare.values()]
+        assert spare != first._worker.process.pid
+    with load_method(BAND_MEANS) as second:
+        # the spare serves the next plug-in: no plug-in code ran in it before
+        assert second._worker.process.pid == spare
+        assert second.fit(_views()).transform(_views()).shape == (6, 8 * 3)
+    assert first._worker.process is None  # killed when closed, not reused

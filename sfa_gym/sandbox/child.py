@@ -17,6 +17,7 @@ plug-in runs.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import sys
@@ -164,9 +165,17 @@ def main() -> None:
     os.dup2(devnull, 0)
     sys.stdin = open(os.devnull)  # noqa: SIM115 (the plug-in reads nothing from the pipe)
 
+    # what most plug-ins and the loader import, loaded while the worker waits as a spare (see
+    # sfa_gym.sandbox.process); the plug-in's own imports come with its first message
+    import numpy  # noqa: F401
     from threadpoolctl import threadpool_limits
 
+    import sfa_gym.plugins  # noqa: F401
+    import sfa_gym.protocols.slow_features  # noqa: F401
     from sfa_gym.sandbox.wire import decode
+
+    with contextlib.suppress(ImportError):
+        import sklearn.base  # noqa: F401
 
     threadpool_limits(limits=1)
     made, kind = None, None

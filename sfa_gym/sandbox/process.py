@@ -10,6 +10,8 @@ which :func:`confinement` says once on standard error.
 
 from __future__ import annotations
 
+import atexit
+import contextlib
 import functools
 import os
 import select
@@ -151,6 +153,87 @@ def _command(scratch: Path, hidden: Sequence[Path], memory_mb: int | None) -> li
     return [*confine, "--", *command]
 
 
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _spawn(hidden: tuple[Path, ...], memory_mb: int | None) -> tuple[subprocess.Popen[bytes], Path]:
+    """Start a worker process (it imports its libraries, then waits for its first message)."""
+    import sfa_gym
+
+    scratch = Path(tempfile.mkdtemp(prefix="sfa-gym-plugin-"))
+    package_parent = str(Path(sfa_gym.__file__).resolve().parent.parent)
+    path = os.environ.get("PYTHONPATH")
+    env = {
+        **os.environ,
+        # the worker imports the evaluator's own copy of sfa_gym, wherever it runs from
+        "PYTHONPATH": package_parent + (os.pathsep + path if path else ""),
+        "TMPDIR": str(scratch),
+        "HOME": str(scratch),
+        # one BLAS thread in every BLAS the plug-in loads, as the evaluator computes (a limit
+        # set from inside would miss the libraries imported after it)
+        **dict.fromkeys(BLAS_THREAD_VARIABLES, "1"),
+    }
+    process = subprocess.Popen(
+        _command(scratch, hidden, memory_mb),
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        cwd=scratch,
+        env=env,
+        bufsize=0,
+        start_new_session=True,  # its own process group: stopped as a whole
+    )
+    os.set_blocking(process.stdin.fileno(), False)  # type: ignore[union-attr]
+    return process, scratch
+
+
+# One worker started ahead, while the current one works, for the next plug-in with the same
+# confinement, limit and environment: its interpreter start and library imports (about a second
+# per task) are then off the evaluator's path. A worker serves one plug-in only, and the spare
+# has run no plug-in code yet.
+_spare: dict[Any, tuple[subprocess.Popen[bytes], Path]] = {}
+
+
+def _end(process: subprocess.Popen[bytes], scratch: Path) -> int | None:
+    """Kill a worker's process group and remove its scratch folder; its exit code (None: it
+    was still running)."""
+    code = process.poll()
+    if code is None:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+    for stream in (process.stdin, process.stdout):
+        if stream is not None:
+            stream.close()
+    shutil.rmtree(scratch, ignore_errors=True)
+    return code
+
+
+def _discard_spares() -> None:
+    for process, scratch in _spare.values():
+        _end(process, scratch)
+    _spare.clear()
+
+
+atexit.register(_discard_spares)
+
+
+def _take_spare(
+    hidden: tuple[Path, ...], memory_mb: int | None
+) -> tuple[subprocess.Popen[bytes], Path]:
+    """A started worker for ``hidden`` and ``memory_mb`` (the spare, if it was started with
+    these and this process's environment and is alive), and a new spare behind it."""
+    key = (hidden, memory_mb, confinement(), tuple(sorted(os.environ.items())))
+    taken = _spare.pop(key, None)
+    _discard_spares()  # a spare of other settings is not going to be asked for
+    if taken is not None and taken[0].poll() is not None:
+        _end(*taken)
+        taken = None
+    if taken is None:
+        taken = _spawn(hidden, memory_mb)
+    _spare[key] = _spawn(hidden, memory_mb)
+    return taken
+
+
 class Worker:
     """One plug-in's worker process.
 
@@ -167,31 +250,12 @@ class Worker:
         hidden: Sequence[str | os.PathLike[str]] = (),
         memory_mb: int | None = None,
     ) -> None:
-        import sfa_gym
-
         self.label = label
         self.memory_mb = memory_mb
-        self.scratch = Path(tempfile.mkdtemp(prefix="sfa-gym-plugin-"))
-        package_parent = str(Path(sfa_gym.__file__).resolve().parent.parent)
-        path = os.environ.get("PYTHONPATH")
-        env = {
-            **os.environ,
-            # the worker imports the evaluator's own copy of sfa_gym, wherever it runs from
-            "PYTHONPATH": package_parent + (os.pathsep + path if path else ""),
-            "TMPDIR": str(self.scratch),
-            "HOME": str(self.scratch),
-        }
-        command = _command(self.scratch, [Path(h).resolve() for h in hidden], memory_mb)
-        self.process: subprocess.Popen[bytes] | None = subprocess.Popen(
-            command,
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            cwd=self.scratch,
-            env=env,
-            bufsize=0,
-            start_new_session=True,  # its own process group: stopped as a whole
+        self.process: subprocess.Popen[bytes] | None
+        self.process, self.scratch = _take_spare(
+            tuple(Path(h).resolve() for h in hidden), memory_mb
         )
-        os.set_blocking(self.process.stdin.fileno(), False)  # type: ignore[union-attr]
 
     def call(self, request: dict[str, Any], limit: float, what: str) -> Any:
         """Send ``request``, wait at most ``limit`` seconds for the answer, return its value.
@@ -264,31 +328,12 @@ class Worker:
     def stop(self) -> int | None:
         """Kill the worker and its process group, remove its scratch folder; its exit code."""
         process, self.process = self.process, None
-        if process is None:
-            return None
-        code = process.poll()
-        if code is None:
-            try:
-                os.killpg(process.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-            process.wait()
-        for stream in (process.stdin, process.stdout):
-            if stream is not None:
-                stream.close()
-        shutil.rmtree(self.scratch, ignore_errors=True)
-        return code
+        return None if process is None else _end(process, self.scratch)
 
-    def close(self, grace: float = 5.0) -> None:
-        """End the worker: it exits when its input closes (killed after ``grace`` seconds)."""
-        process = self.process
-        if process is None:
-            return
-        try:
-            process.stdin.close()  # type: ignore[union-attr]
-            process.wait(grace)
-        except (OSError, subprocess.TimeoutExpired):
-            pass
+    def close(self) -> None:
+        """End the worker. It is killed rather than asked to exit: it owes the evaluator nothing
+        more, and an interpreter that unloads scipy and sklearn takes a few tenths of a second
+        to exit, every task."""
         self.stop()
 
     def __del__(self) -> None:
