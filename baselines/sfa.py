@@ -15,15 +15,26 @@ themselves with their ``--sfa.*`` settings. On the leaderboard::
 
 from __future__ import annotations
 
-from sfa_gym.protocols.settings import SFASettings
+from dataclasses import dataclass
+
+from sfa_gym.protocols.settings import NetworkName, SFASettings
 from sfa_gym.protocols.slow_features import SlowFeatureMethod
 
-Args = SFASettings
+
+@dataclass(frozen=True)
+class Args(SFASettings):
+    """:class:`~sfa_gym.protocols.settings.SFASettings`, the network made for the track's
+    panoramas by default (tracks differ in camera: 40 x 350 and 60 x 600)."""
+
+    network: NetworkName = "auto"
+    """architecture: a preset of sfa_gym.sfa.presets (paper_sim: 40 x 350 panoramas, 4 layers;
+    paper_outdoor: 60 x 600; tiny: any small panorama, 3 layers; auto: the one made for the
+    panoramas' size)"""
 
 
 def make_method(**kwargs: object) -> SlowFeatureMethod:
-    """An unfitted hierarchical SFA method with ``SFASettings(**kwargs)`` (checked here, before
+    """An unfitted hierarchical SFA method with ``Args(**kwargs)`` (checked here, before
     anything is rendered)."""
-    settings = SFASettings(**kwargs)  # type: ignore[arg-type]
+    settings = Args(**kwargs)  # type: ignore[arg-type]
     settings.validate()
     return SlowFeatureMethod(settings, progress=False)

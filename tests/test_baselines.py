@@ -53,7 +53,12 @@ def test_every_built_in_method_is_a_scikit_learn_estimator(name):
     assert copy is not method and type(copy) is type(method)
     assert copy.get_params() == params
     if name == "sfa":  # its arguments are the SFA settings, held whole
-        assert params == {"settings": SFASettings(), "rotation": Rotation(), "progress": False}
+        settings = params.pop("settings")  # the file's Args: SFASettings, the network "auto"
+        assert isinstance(settings, SFASettings) and params == {
+            "rotation": Rotation(),
+            "progress": False,
+        }
+        assert dataclasses.asdict(settings) == dataclasses.asdict(SFASettings(network="auto"))
         assert clone(_method(name, node_dim=16)).get_params()["settings"].node_dim == 16
         return
     # the estimator's parameters are the fields of Args, with the same defaults

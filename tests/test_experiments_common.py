@@ -220,3 +220,20 @@ def test_rotation_invariant_methods_transform_each_panorama_once(panoramas):
     calls.clear()
     view_features(method, panoramas, Rotation(step=4, window=20), np.arange(3), progress=False)
     assert calls and sum(calls) == 3 * len(panoramas)
+
+
+def test_the_auto_network_is_the_preset_made_for_the_panoramas():
+    from sfa_gym.plugins import load_method_plugin
+    from sfa_gym.protocols.settings import SFASettings
+    from sfa_gym.sfa import presets
+
+    auto = SFASettings(network="auto")
+    assert auto.make_model(40, 350).layers == presets.paper_sim()
+    assert auto.make_model(60, 600).layers == presets.paper_outdoor()
+    assert auto.make_model(10, 40).layers == presets.tiny(10, 40, 32, 32)
+    # paper_sim cannot tile the outdoor camera: the leaderboard's SFA chooses by itself
+    with pytest.raises(ValueError, match="column stride 7 must divide the width 12"):
+        SFASettings(network="paper_sim").make_model(60, 600).fit_rotations(
+            np.zeros((4, 60, 600, 3), dtype=np.uint8), step=5
+        )
+    assert load_method_plugin("sfa")().settings.network == "auto"

@@ -17,6 +17,7 @@ import tyro
 from sfa_gym._checks import check_positive_int
 from sfa_gym.rotation import Rotation, check_step
 from sfa_gym.sfa import HierarchicalSFA, LayerSpec, WeightSharing, presets
+from sfa_gym.sfa.spec import layer_grids
 
 __all__ = [
     "EnvId",
@@ -29,15 +30,33 @@ __all__ = [
     "check_env_id",
     "check_panorama",
     "check_world",
+    "network_for",
 ]
 
-NetworkName = Literal["paper_sim", "paper_outdoor", "tiny"]
-"""Presets of :mod:`sfa_gym.sfa.presets` a protocol can train."""
+NetworkName = Literal["auto", "paper_sim", "paper_outdoor", "tiny"]
+"""Presets of :mod:`sfa_gym.sfa.presets` a protocol can train; ``auto``: the one made for the
+panoramas' size (:func:`network_for`)."""
 
 EnvId = Annotated[str, tyro.conf.arg(aliases=("--env",))]
 """A registered env id; on the command line ``--env-id`` or ``--env``."""
 
+
+def network_for(height: int, width: int, node_dim: int) -> list[LayerSpec]:
+    """The layers of the preset made for ``height x width`` panoramas: the first of paper_sim
+    (40 x 350) and paper_outdoor (60 x 600) whose layers tile that size, else tiny (which
+    fits any small panorama, or says why it does not)."""
+    for name in ("paper_sim", "paper_outdoor"):
+        layers = NETWORKS[name](height, width, node_dim)
+        try:
+            layer_grids(layers, height, width)
+        except ValueError:
+            continue
+        return layers
+    return NETWORKS["tiny"](height, width, node_dim)
+
+
 NETWORKS: dict[str, Callable[[int, int, int], list[LayerSpec]]] = {
+    "auto": network_for,
     "paper_sim": lambda h, w, d: presets.paper_sim(dim=d, out_dim=d),
     "paper_outdoor": lambda h, w, d: presets.paper_outdoor(dim=d, out_dim=d),
     "tiny": lambda h, w, d: presets.tiny(height=h, width=w, dim=d, out_dim=d),
@@ -130,7 +149,8 @@ class SFASettings:
 
     network: NetworkName = "paper_sim"
     """architecture: a preset of sfa_gym.sfa.presets (paper_sim: 40 x 350 panoramas, 4 layers;
-    paper_outdoor: 60 x 600; tiny: any small panorama, 3 layers)"""
+    paper_outdoor: 60 x 600; tiny: any small panorama, 3 layers; auto: the one made for the
+    panoramas' size)"""
     node_dim: int = 32
     """linear SFA dimension and output dimension of every node"""
     n_outputs: int = 8
