@@ -33,12 +33,15 @@ def _record(path, driver, **kwargs):
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    """A 7-sample trajectory run in 3 chunks, and a 4-pose pose-list run (8x24 panoramas)."""
+    """A 7-sample trajectory run in chunks of 3, a 4-pose pose-list run, and the trajectory
+    again in chunks of one sample (8x24 panoramas)."""
     root = tmp_path_factory.mktemp("runs")
     mower = LawnMowerDriver(spacing=1.0, pattern="rows")
     trajectory = _record(root / "mower.run", mower, n_steps=7)
     poses = _record(root / "grid.run", GridPositions(n=2, seed=0))
-    return trajectory.path, poses.path
+    mower = LawnMowerDriver(spacing=1.0, pattern="rows")
+    ones = _record(root / "ones.run", mower, n_steps=7, chunk_size=1)
+    return trajectory.path, poses.path, ones.path
 
 
 @pytest.fixture(autouse=True)
@@ -49,10 +52,12 @@ def datasets(tmp_path, monkeypatch):
     return folder
 
 
-@pytest.mark.parametrize("block_size", [2, 3, 256])
-def test_the_episode_read_back_is_the_run(runs, block_size):
-    path = runs[0]
+@pytest.mark.parametrize(("which", "block_size"), [(0, 2), (0, 3), (0, 256), (2, 256)])
+def test_the_episode_read_back_is_the_run(runs, which, block_size):
+    path = runs[which]
     run = load_run(path)
+    if which == 2:  # one sample a chunk: the first block joins two chunks
+        np.testing.assert_array_equal(run.panoramas, load_run(runs[0]).panoramas)
     export_minari(path, "sfa-gym/mower-v0", block_size=block_size)
 
     dataset = minari.load_dataset("sfa-gym/mower-v0")
@@ -79,7 +84,7 @@ def test_the_episode_read_back_is_the_run(runs, block_size):
     metadata = dataset.storage.metadata
     assert metadata["sfa_gym_run"]["driver"]["type"] == "LawnMowerDriver"
     assert metadata["algorithm_name"] == "sfa-gym LawnMowerDriver"
-    assert "mower.run" in metadata["description"]
+    assert path.name in metadata["description"]
 
 
 def test_an_episode_the_env_ended_is_terminated(runs, tmp_path):
