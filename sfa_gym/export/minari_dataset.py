@@ -86,6 +86,7 @@ def _minari() -> Any:
 
 def check_dataset_id(dataset_id: Any) -> str:
     """``dataset_id`` if Minari accepts it as a local dataset id; ValueError naming the rule."""
+    _minari()
     from minari.dataset.minari_dataset import parse_dataset_id
 
     if not isinstance(dataset_id, str):
@@ -237,7 +238,9 @@ def export_minari(
         overwrite: replace an existing dataset of that id (else it is refused).
         incomplete: export an interrupted recording as it is (its episode ends truncated).
         description: the dataset's description (default: one naming the run, env and driver).
-        author, author_email, code_permalink: Minari's metadata of the same names.
+        author: the dataset's author (Minari's metadata).
+        author_email: the author's email (Minari's metadata).
+        code_permalink: a link to the code that made the dataset (Minari's metadata).
         block_size: samples appended to the episode at once, >= 2.
 
     Returns:
