@@ -31,6 +31,14 @@ def _record(path, driver, **kwargs):
     return record(ENV_ID, driver, path, env_kwargs=TINY, progress=False, **kwargs)
 
 
+def _with_header(run, copy, **changes):
+    """A copy of the run whose header has these keys changed."""
+    shutil.copytree(run, copy)
+    header = json.loads((copy / "run.json").read_text())
+    (copy / "run.json").write_text(json.dumps({**header, **changes}))
+    return copy
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """A 7-sample trajectory run in chunks of 3, a 4-pose pose-list run, and the trajectory
@@ -88,11 +96,7 @@ def test_the_episode_read_back_is_the_run(runs, which, block_size):
 
 
 def test_an_episode_the_env_ended_is_terminated(runs, tmp_path):
-    copy = tmp_path / "ended.run"
-    shutil.copytree(runs[0], copy)
-    header = json.loads((copy / "run.json").read_text())
-    header["end_reason"] = "terminated"
-    (copy / "run.json").write_text(json.dumps(header))
+    copy = _with_header(runs[0], tmp_path / "ended.run", end_reason="terminated")
     episode = export_minari(copy, "ended-v0")[0]
     assert list(episode.terminations) == [False] * 5 + [True]
     assert not episode.truncations.any()
@@ -168,3 +172,13 @@ def test_the_command_line_exports_and_explains_refusals(runs, capsys):
     assert "name-v<version>" in capsys.readouterr().err
     assert main(["export-minari", str(runs[1]), "grid-v0"]) == 2
     assert "pose-list run" in capsys.readouterr().err
+
+
+def test_a_run_of_an_env_unknown_here_gets_an_unbounded_action_space(runs, tmp_path):
+    # recorded from an env instance, not a registered id
+    copy = _with_header(runs[0], tmp_path / "foreign.run", env_id="SomeoneElsesRover")
+    dataset = export_minari(copy, "foreign-v0")
+    assert dataset.action_space == gym.spaces.Box(-np.inf, np.inf, (2,), np.float32)
+    assert dataset.env_spec is None
+    assert dataset.storage.metadata["sfa_gym_run"]["env_id"] == "SomeoneElsesRover"
+    np.testing.assert_array_equal(dataset[0].actions, load_run(copy).actions[1:])

@@ -235,7 +235,8 @@ def export_minari(
         run_path: a ``<name>.run`` directory written by
             :func:`~sfa_gym.recording.recorder.record` (kind ``"trajectory"``).
         dataset_id: ``(namespace/)name-v<version>``, e.g. ``"sfa-gym/lawnmower-v0"``.
-        overwrite: replace an existing dataset of that id (else it is refused).
+        overwrite: replace an existing dataset of that id (else it is refused); the old one is
+            deleted once the run has been checked, before the new one is written.
         incomplete: export an interrupted recording as it is (its episode ends truncated).
         description: the dataset's description (default: one naming the run, env and driver).
         author: the dataset's author (Minari's metadata).
