@@ -59,7 +59,9 @@ def run(field_path, tmp_path_factory) -> Path:
     return out
 
 
-def test_train_writes_the_curve_checkpoints_and_model_and_resumes(run, field_path, tmp_path):
+def test_train_writes_the_curve_checkpoints_and_model_and_resumes(
+    run, field_path, tmp_path, capsys
+):
     from stable_baselines3 import PPO
 
     curve = load_curve(run / CURVE)
@@ -82,15 +84,20 @@ def test_train_writes_the_curve_checkpoints_and_model_and_resumes(run, field_pat
     # with a constant rate the optimiser keeps it
     assert model.policy.optimizer.param_groups[0]["lr"] == pytest.approx(SMALL.learning_rate)
 
-    # started again with a larger budget, it continues from the newest checkpoint
+    # started again with a larger budget, it continues from the newest checkpoint that loads:
+    # here the 256-step one, the 512-step one cut short as by a crash while it was written
     resumed_run = tmp_path / "resumed"
     shutil.copytree(run, resumed_run)
+    newest = resumed_run / "checkpoints" / "ppo_512_steps.zip"
+    newest.write_bytes(newest.read_bytes()[:1000])
     env = AgentEnv(field=field_path)
     resumed = train(resumed_run, env, dataclasses.replace(SMALL, total_timesteps=1024), False)
-    assert resumed[:2] == curve  # floats round-trip exactly
-    assert [row["steps"] for row in resumed[2:]] == [768, 1024]
-    assert resumed[-1]["seconds"] >= curve[-1]["seconds"]
+    assert "skipped checkpoint" in capsys.readouterr().err
+    assert resumed[:1] == curve[:1]  # floats round-trip exactly; the 512-step row is redone
+    assert [row["steps"] for row in resumed[1:]] == [512, 768, 1024]
+    assert resumed[-1]["seconds"] >= curve[0]["seconds"]
     assert latest_checkpoint(resumed_run).name == "ppo_1024_steps.zip"
+    assert PPO.load(resumed_run / "model.zip", device="cpu").num_timesteps == 1024
 
     # the folder's agent was trained on other settings: refused, not mixed
     with pytest.raises(ValueError, match="other env settings"):

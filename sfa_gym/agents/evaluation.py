@@ -97,9 +97,9 @@ def evaluate(
             return_episode_rewards=True,
         )  # fmt: skip
     finally:
-        score = ends.close()
+        ends.bar.close()
         venv.close()
-    return score | {"return": float(np.mean(returns))}
+    return ends.close() | {"return": float(np.mean(returns))}
 
 
 class NavigationEvalCallback(EvalCallback):
