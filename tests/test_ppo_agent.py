@@ -277,3 +277,11 @@ def test_anneal_lr_decays_the_learning_rate_over_the_budget(field_path, tmp_path
     # SB3 sets the rate after each rollout: the last one ends the budget
     assert model.policy.optimizer.param_groups[0]["lr"] == 0.0
     assert model.lr_schedule(0.5) == pytest.approx(settings.learning_rate / 2)
+
+
+def test_a_missing_package_names_the_extra_to_install():
+    from sfa_gym.cli.agent import _require
+
+    _require("stable_baselines3")  # installed: nothing to say
+    with pytest.raises(ImportError, match=r"no_such_package_here: pip install 'sfa-gym\[sb3\]'"):
+        _require("stable_baselines3", "no_such_package_here")

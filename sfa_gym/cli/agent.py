@@ -15,6 +15,18 @@ from sfa_gym.agents.training import Training
 __all__ = ["Agent", "AgentEval", "AgentPlay", "AgentTrain"]
 
 
+def _require(*modules: str) -> None:
+    """Raises ImportError naming the extra to install when one of ``modules`` is missing."""
+    import importlib.util
+
+    missing = [m for m in modules if importlib.util.find_spec(m) is None]
+    if missing:
+        raise ImportError(
+            f"sfa-gym agent needs {', '.join(missing)}: pip install 'sfa-gym[sb3]' "
+            "(stable-baselines3, imageio, imageio-ffmpeg)"
+        )
+
+
 @dataclass(frozen=True)
 class AgentTrain:
     """Train PPO on a navigation env into a folder: agent.json (the env settings), the learning
@@ -31,6 +43,7 @@ class AgentTrain:
     """no progress bars"""
 
     def run(self) -> int:
+        _require("stable_baselines3")
         from sfa_gym.agents.training import MODEL, train
 
         curve = train(self.out, self.env, self.training, progress=not self.quiet)
@@ -59,6 +72,7 @@ class AgentEval:
     """no progress bar"""
 
     def run(self) -> int:
+        _require("stable_baselines3")
         from sfa_gym.agents.env import read_agent_file
         from sfa_gym.agents.evaluation import evaluate
         from sfa_gym.agents.rollout import load_model
@@ -97,6 +111,7 @@ class AgentPlay:
     """no progress bar"""
 
     def run(self) -> int:
+        _require("stable_baselines3", "imageio")
         from sfa_gym.agents.rollout import record_rollout
 
         done = record_rollout(
