@@ -285,3 +285,19 @@ def test_a_missing_package_names_the_extra_to_install():
     _require("stable_baselines3")  # installed: nothing to say
     with pytest.raises(ImportError, match=r"no_such_package_here: pip install 'sfa-gym\[sb3\]'"):
         _require("stable_baselines3", "no_such_package_here")
+
+
+@pytest.mark.parametrize(
+    ("command", "classes"),
+    [("train", (AgentEnv, Training)), ("eval", ()), ("play", ())],
+)
+def test_help_lists_every_setting(command, classes, capsys, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "200")  # one option per line, however long
+    with pytest.raises(SystemExit) as exit_:
+        main(["agent", command, "--help"])
+    assert exit_.value.code == 0
+    printed = capsys.readouterr().out
+    for cls in classes:
+        for field in dataclasses.fields(cls):
+            assert "--" + field.name.replace("_", "-") in printed
+    assert "--quiet" in printed and ("--run" in printed) == (command != "train")
