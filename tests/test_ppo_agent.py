@@ -134,6 +134,10 @@ def test_play_records_a_gif_of_the_top_down_view_beside_the_panorama(run, tmp_pa
     assert {f.shape[:2] for f in frames} == {(64, 64 + 350)}
     # the panorama is rendered, not black: a feature agent's env renders none itself
     assert frames[0][20, 64:].std() > 0
+    from PIL import Image
+
+    with Image.open(out) as gif:  # the env's 10 steps a second
+        assert gif.info["duration"] == 100
 
 
 def test_play_records_an_mp4_when_imageio_ffmpeg_is_there(run, tmp_path):

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
 __all__ = ["AGENT_FILE", "AgentEnv", "make_env"]
 
@@ -165,5 +166,6 @@ def make_env(settings: AgentEnv, render_mode: str | None = None, **env_kwargs: A
         transform = StackedPanoramas(env.observation_space)
         env = gym.wrappers.TransformObservation(env, transform, transform.space)
     # PPO's Gaussian starts with unit spread: on the raw (+-0.4 m/s, +-1 rad/s) box most speeds
-    # would be clipped to the limits
-    return gym.wrappers.RescaleAction(env, -1.0, 1.0)
+    # would be clipped to the limits (float32 bounds: the action box's dtype, no cast warning)
+    one = np.ones(env.action_space.shape, np.float32)
+    return gym.wrappers.RescaleAction(env, -one, one)

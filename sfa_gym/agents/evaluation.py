@@ -15,7 +15,8 @@ import numpy as np
 from stable_baselines3.common.callbacks import EvalCallback
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.monitor import Monitor
-from stable_baselines3.common.vec_env import DummyVecEnv
+from stable_baselines3.common.preprocessing import is_image_space, is_image_space_channels_first
+from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecTransposeImage
 from tqdm import tqdm
 
 from sfa_gym.agents.env import AgentEnv, make_env
@@ -40,10 +41,16 @@ class SeededEpisodes(gym.Wrapper):
         return self.env.reset(seed=seed, options=options)
 
 
-def eval_env(settings: AgentEnv, seed: int) -> DummyVecEnv:
+def eval_env(settings: AgentEnv, seed: int) -> VecEnv:
     """One env of ``settings`` whose episodes are seeded ``seed, seed + 1, ...`` (``Monitor``
-    records each episode's return for ``evaluate_policy``)."""
-    return DummyVecEnv([lambda: SeededEpisodes(Monitor(make_env(settings)), seed)])
+    records each episode's return for ``evaluate_policy``); images channels first, as SB3 wraps
+    the training envs of a ``CnnPolicy``."""
+    venv: VecEnv = DummyVecEnv([lambda: SeededEpisodes(Monitor(make_env(settings)), seed)])
+    if is_image_space(venv.observation_space) and not is_image_space_channels_first(
+        venv.observation_space
+    ):
+        venv = VecTransposeImage(venv)
+    return venv
 
 
 class EpisodeEnds:
@@ -106,7 +113,7 @@ class NavigationEvalCallback(EvalCallback):
     """SB3's ``EvalCallback`` on the same seeded episodes at every evaluation, also scoring
     success, SPL and final distance; ``record(steps, score)`` receives each evaluation."""
 
-    def __init__(self, venv: DummyVecEnv, episodes: int, every: int, record, progress: bool):
+    def __init__(self, venv: VecEnv, episodes: int, every: int, record, progress: bool):
         super().__init__(venv, n_eval_episodes=episodes, eval_freq=every, deterministic=True,
                          verbose=0, warn=False)  # fmt: skip
         self.record, self.progress = record, progress

@@ -71,7 +71,7 @@ def _writer(path: Path, fps: float):
     import imageio.v2 as imageio
 
     if path.suffix == ".gif":
-        return imageio.get_writer(path, mode="I", fps=fps, loop=0)
+        return imageio.get_writer(path, mode="I", duration=1000.0 / fps, loop=0)  # ms a frame
     try:
         import imageio_ffmpeg  # noqa: F401
     except ImportError:
