@@ -12,6 +12,8 @@
   (:class:`~sfa_gym.cli.navigate.Navigate`).
 - ``sfa-gym leaderboard run|table``: score methods on the versioned tracks, build the table
   (:class:`~sfa_gym.cli.leaderboard.Leaderboard`).
+- ``sfa-gym agent train|eval|play``: a navigation agent trained with PPO, scored, and recorded
+  as a GIF or MP4 (:class:`~sfa_gym.cli.agent.Agent`).
 - ``sfa-gym docs-tables [--check]``: the tables of README.md and docs/ from the committed result
   files (:class:`~sfa_gym.cli.docs.DocsTables`).
 
@@ -28,6 +30,7 @@ from typing import Annotated
 
 import tyro
 
+from sfa_gym.cli.agent import Agent
 from sfa_gym.cli.docs import DocsTables
 from sfa_gym.cli.leaderboard import Leaderboard
 from sfa_gym.cli.localize import Localize, LocalizeOutdoor, LocalizeRun
@@ -44,19 +47,23 @@ Command = (
     | Annotated[LocalizeOutdoor, tyro.conf.subcommand("localize-outdoor")]
     | Annotated[Navigate, tyro.conf.subcommand("navigate")]
     | Annotated[Leaderboard, tyro.conf.subcommand("leaderboard")]
+    | Annotated[Agent, tyro.conf.subcommand("agent")]
     | Annotated[DocsTables, tyro.conf.subcommand("docs-tables")]
 )
 """The subcommands, one settings dataclass each."""
 
 DESCRIPTION = (
     "Visual self-localization and navigation with Slow Feature Analysis: record runs of the "
-    "rover, run the paper's localization protocols and the navigation protocol."
+    "rover, run the paper's localization protocols and the navigation protocol, train and watch "
+    "navigation agents."
 )
 
 
 def parse(
     argv: Sequence[str] | None = None,
-) -> Record | Localize | LocalizeRun | LocalizeOutdoor | Navigate | Leaderboard | DocsTables:
+) -> (
+    Record | Localize | LocalizeRun | LocalizeOutdoor | Navigate | Leaderboard | Agent | DocsTables
+):
     """The command and its settings from ``argv`` (default: ``sys.argv[1:]``); ``--help`` and
     unparsable options exit as argparse does."""
     return tyro.cli(
