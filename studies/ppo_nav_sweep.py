@@ -1,15 +1,15 @@
 """PPO on every observation of the navigation benchmark, several seeds, one figure and one table.
 
-Runs ``baselines/agents/ppo_nav.py`` for each (method, seed), ``workers`` processes at a time
-(one torch thread each), on the feature fields that ``sfa-gym navigate`` wrote, and on rendered
-panoramas for ``pixels`` (CnnPolicy, with its own smaller budget), ``<method>+estimate`` (the
-agent also sees the goal estimate of a local linear fit, ``--estimate``), and ``oracle`` (the goal's
-position relative to the rover from the ground truth: the upper bound, small budget); ``+ranges``
-adds the range sensor's readings (``--ranges``). Each run
-keeps its learning curve and checkpoint in ``out/<method>-<seed>/`` and resumes there when
-started again; finished runs are skipped. Then it plots success and SPL against training steps
-(mean over seeds, with the range) to ``out/learning_curves.png`` and writes the last
-evaluation of each run to ``out/summary.json``.
+Runs ``sfa-gym agent train`` (:mod:`sfa_gym.agents`) for each (method, seed), ``workers``
+processes at a time (one torch thread each), on the feature fields that ``sfa-gym navigate``
+wrote, and on rendered panoramas for ``pixels`` (CnnPolicy, with its own smaller budget),
+``<method>+estimate`` (the agent also sees the goal estimate of a local linear fit,
+``--estimate``), and ``oracle`` (the goal's position relative to the rover from the ground
+truth: the upper bound, small budget); ``+ranges`` adds the range sensor's readings
+(``--ranges``). Each run keeps its learning curve and checkpoints in ``out/<method>-<seed>/``
+and resumes there when started again; finished runs are skipped. Then it plots success and SPL
+against training steps (mean over seeds, with the range) to ``out/learning_curves.png`` and
+writes the last evaluation of each run to ``out/summary.json``.
 
 Backs docs/navigation.md ("PPO agents": the learning curves ``docs/ppo_learning_curves*.png``
 and the table of the last evaluations).
@@ -35,8 +35,6 @@ import tyro
 
 from sfa_gym.files import write_json_atomic
 
-ROOT = Path(__file__).resolve().parents[1]
-AGENT = ROOT / "baselines" / "agents" / "ppo_nav.py"
 FEATURES = ["sfa", "fft_magnitude", "band_means", "pca", "raw_pixels"]
 # "<features>+estimate": the same memory plus the local linear fit's estimate of the goal;
 # "+ranges" adds the range sensor's readings
@@ -97,11 +95,12 @@ def run_one(args: Args, method: str, seed: int) -> Path:
     if curve and curve[-1]["steps"] >= budget:
         return run
     command = [
-        sys.executable, str(AGENT), "--out", str(run), "--seed", str(seed),
+        sys.executable, "-m", "sfa_gym.cli", "agent", "train", "--out", str(run),
+        "--seed", str(seed),
         "--env-id", args.env, "--world-seed", str(args.world_seed),
         "--total-timesteps", str(budget), "--eval-episodes", str(args.eval_episodes),
         "--eval-every", str(min(args.eval_every, budget // 5)),
-        "--no-progress",
+        "--quiet",
     ]  # fmt: skip
     if method == "oracle":  # ground truth; SFA's field only spares the rendering
         command += ["--oracle", "--field", str(args.nav / "field_sfa.npz")]

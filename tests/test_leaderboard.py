@@ -339,25 +339,34 @@ def test_a_forged_entry_with_matching_checksums_is_rendered_again(tmp_path, forg
     np.testing.assert_array_equal(after.poses, poses)
 
 
-def test_a_driven_entry_is_checked_by_its_first_sample(tmp_path, capsys):
+@pytest.mark.parametrize("forged", ["first panorama", "later poses", "later panoramas"])
+def test_a_driven_entry_is_driven_again_and_compared(tmp_path, capsys, forged):
     from sfa_gym.recording import cache as cache_module
     from sfa_gym.recording.drivers import RandomWalkDriver
 
     request = RunRequest(
-        world="paper_sim", world_seed=100, panorama=(8, 24), driver=RandomWalkDriver(), n_steps=5
+        world="paper_sim", world_seed=100, panorama=(8, 24), driver=RandomWalkDriver(), n_steps=6
     )
     cache = RunCache(tmp_path)
-    first = np.asarray(cache.get(request).panoramas[0])
+    first = cache.get(request)
+    panoramas, poses = np.asarray(first.panoramas), first.poses.copy()
     cache_module._CHECKED.clear()
     assert RunCache(tmp_path).get(request) is not None and len(cache.renders()) == 1
 
     def change(arrays):
-        arrays["panoramas"][0] = arrays["panoramas"][1]
+        if forged == "first panorama":
+            arrays["panoramas"][0] = arrays["panoramas"][1]
+        elif forged == "later poses":
+            arrays["poses"][3:, 0] += 0.25
+        else:
+            arrays["panoramas"][1:] = 255 - arrays["panoramas"][1:]
 
     _forge(cache.path(request), change)
     cache_module._CHECKED.clear()
-    np.testing.assert_array_equal(RunCache(tmp_path).get(request).panoramas[0], first)
-    assert len(cache.renders()) == 2 and "sample 0" in capsys.readouterr().err
+    again = RunCache(tmp_path).get(request)
+    assert len(cache.renders()) == 2 and "does not match its recording" in capsys.readouterr().err
+    np.testing.assert_array_equal(again.panoramas, panoramas)
+    np.testing.assert_array_equal(again.poses, poses)
 
 
 def test_a_fresh_process_whose_first_step_is_the_cache_renders_headless(tmp_path):

@@ -1,14 +1,14 @@
-"""The PPO navigation agent (baselines/agents/ppo_nav.py): it trains on a real feature field and
-on rendered panoramas, writes its learning curve and checkpoint, resumes, and refuses bad
-arguments. Small budgets: these check the machinery, not the agent's skill (the sweep in
-studies/ppo_nav_sweep.py measures that)."""
+"""The navigation agents (sfa_gym.agents, ``sfa-gym agent train|eval|play``): real PPO training
+on a real feature field and on rendered panoramas, the learning curve and checkpoints, resuming,
+scoring a saved model, recording a rollout, and refusing bad arguments. Small budgets: these
+check the machinery, not the agent's skill (studies/ppo_nav_sweep.py measures that)."""
 
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import math
-import sys
+import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -16,24 +16,20 @@ import pytest
 
 pytest.importorskip("stable_baselines3", reason="the test extra installs stable-baselines3")
 
+from sfa_gym.agents import AgentEnv, FeatureHistory, make_env  # noqa: E402
+from sfa_gym.agents.training import CURVE, Training, latest_checkpoint, load_curve, train  # noqa: E402
+from sfa_gym.cli.main import main  # noqa: E402
 from sfa_gym.navigation.field import FeatureField  # noqa: E402
 from sfa_gym.plugins import load_method_plugin  # noqa: E402
 from sfa_gym.sim.env import OmniRoverEnv  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _agent():
-    spec = importlib.util.spec_from_file_location("ppo_nav", ROOT / "baselines/agents/ppo_nav.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
-
-
-@pytest.fixture(scope="module")
-def agent():
-    return _agent()
+SMALL = Training(total_timesteps=512, n_envs=2, n_steps=64, batch_size=64, n_epochs=2,
+                 eval_every=256, eval_episodes=2)  # fmt: skip
+SMALL_ARGS = (
+    "--total-timesteps 512 --n-envs 2 --n-steps 64 --batch-size 64 --n-epochs 2 --eval-every 256 "
+    "--eval-episodes 2 --quiet"
+).split()
 
 
 @pytest.fixture(scope="module")
@@ -55,45 +51,140 @@ def field_path(tmp_path_factory) -> Path:
     return path
 
 
-def _small(agent, out: Path, **kwargs):
-    settings = dict(
-        out=out, total_timesteps=512, n_envs=2, n_steps=64, batch_size=64, n_epochs=2,
-        eval_every=256, eval_episodes=2, progress=False,
-    )  # fmt: skip
-    return agent.Args(**{**settings, **kwargs})
+@pytest.fixture(scope="module")
+def run(field_path, tmp_path_factory) -> Path:
+    """An agent trained for 512 steps by ``sfa-gym agent train``."""
+    out = tmp_path_factory.mktemp("agent") / "run"
+    assert main(["agent", "train", "--out", str(out), "--field", str(field_path), *SMALL_ARGS]) == 0
+    return out
 
 
-def test_trains_on_a_feature_field_writes_its_curve_and_resumes(agent, field_path, tmp_path):
+def test_train_writes_the_curve_checkpoints_and_model_and_resumes(
+    run, field_path, tmp_path, capsys
+):
     from stable_baselines3 import PPO
 
-    args = _small(agent, tmp_path / "run", field=field_path)
-    curve = agent.train(args)
-    assert [row["steps"] for row in curve] == [0, 256, 512]
+    curve = load_curve(run / CURVE)
+    assert [row["steps"] for row in curve] == [256, 512]
     for row in curve:
         assert 0 <= row["success"] <= 1 and 0 <= row["spl"] <= row["success"]
         assert row["final_distance"] >= 0
-    assert agent.load_curve(args.out / agent.CURVE) == curve  # floats round-trip exactly
-    assert (args.out / "learning_curve.png").stat().st_size > 0
-    model = PPO.load(args.out / "model.zip", device="cpu")  # our own file
+    assert (run / "learning_curve.png").stat().st_size > 0
+    model = PPO.load(run / "model.zip", device="cpu")  # our own file
     assert model.num_timesteps == 512
     k = FeatureField.load(field_path).n_features
-    assert model.observation_space.shape == (2 * k + (args.history - 1) * (k + 2),)
+    assert model.observation_space.shape == (2 * k + 7 * (k + 2),)
+    assert sorted(p.name for p in (run / "checkpoints").iterdir()) == [
+        "ppo_256_steps.zip", "ppo_512_steps.zip"
+    ]  # fmt: skip
     # no temporary files are left behind
-    assert sorted(p.name for p in args.out.iterdir()) == sorted(
-        [agent.CHECKPOINT, agent.CURVE, "learning_curve.png", "model.zip"]
+    assert sorted(p.name for p in run.iterdir()) == sorted(
+        ["agent.json", "checkpoints", CURVE, "learning_curve.png", "model.zip"]
     )
+    # with a constant rate the optimiser keeps it
+    assert model.policy.optimizer.param_groups[0]["lr"] == pytest.approx(SMALL.learning_rate)
 
-    # started again with a larger budget, it continues from the checkpoint
-    resumed = agent.train(dataclasses.replace(args, total_timesteps=1024))
-    assert resumed[:3] == curve
-    assert [row["steps"] for row in resumed[3:]] == [768, 1024]
-    assert resumed[-1]["seconds"] >= curve[-1]["seconds"]
+    # started again with a larger budget, it continues from the newest checkpoint that loads:
+    # here the 256-step one, the 512-step one cut short as by a crash while it was written
+    resumed_run = tmp_path / "resumed"
+    shutil.copytree(run, resumed_run)
+    newest = resumed_run / "checkpoints" / "ppo_512_steps.zip"
+    newest.write_bytes(newest.read_bytes()[:1000])
+    env = AgentEnv(field=field_path)
+    resumed = train(resumed_run, env, dataclasses.replace(SMALL, total_timesteps=1024), False)
+    assert "skipped checkpoint" in capsys.readouterr().err
+    assert resumed[:1] == curve[:1]  # floats round-trip exactly; the 512-step row is redone
+    assert [row["steps"] for row in resumed[1:]] == [512, 768, 1024]
+    assert resumed[-1]["seconds"] >= curve[0]["seconds"]
+    assert latest_checkpoint(resumed_run).name == "ppo_1024_steps.zip"
+    assert PPO.load(resumed_run / "model.zip", device="cpu").num_timesteps == 1024
+
+    # the folder's agent was trained on other settings: refused, not mixed
+    with pytest.raises(ValueError, match="other env settings"):
+        train(resumed_run, dataclasses.replace(env, ranges=True), SMALL, False)
 
 
-def test_the_memory_holds_feature_changes_beside_the_moves_in_the_body_frame(agent, field_path):
+def _printed(text: str, name: str) -> float:
+    return float(re.search(rf"{name} (-?[0-9.]+)", text).group(1))
+
+
+def test_eval_loads_a_checkpoint_and_scores_the_trainings_evaluation_again(run, capsys):
+    # the 512-step checkpoint is the policy the 512-step evaluation scored, on the same seeds
+    checkpoint = run / "checkpoints" / "ppo_512_steps.zip"
+    assert main(["agent", "eval", "--run", str(run), "--model", str(checkpoint),
+                 "--episodes", "2", "--quiet"]) == 0  # fmt: skip
+    printed = capsys.readouterr().out
+    row = load_curve(run / CURVE)[-1]
+    assert "2 episodes (seeds 10000-10001)" in printed
+    assert _printed(printed, "success") == pytest.approx(row["success"], abs=0.005)
+    assert _printed(printed, "final distance") == pytest.approx(row["final_distance"], abs=0.005)
+    assert _printed(printed, "return") == pytest.approx(row["return"], abs=0.005)
+
+
+def test_play_records_a_gif_of_the_top_down_view_beside_the_panorama(run, tmp_path, capsys):
+    import imageio.v2 as imageio
+
+    out = tmp_path / "rollout.gif"
+    assert main(["agent", "play", "--run", str(run), "--out", str(out), "--max-steps", "4",
+                 "--render-size", "64", "--quiet"]) == 0  # fmt: skip
+    assert "5 frames" in capsys.readouterr().out
+    frames = imageio.mimread(out)
+    # the first frame and one a step; a 40 x 350 panorama beside the 64 x 64 top-down view
+    assert len(frames) == 5
+    assert {f.shape[:2] for f in frames} == {(64, 64 + 350)}
+    # the panorama is rendered, not black: a feature agent's env renders none itself
+    assert frames[0][20, 64:].std() > 0
+    from PIL import Image
+
+    with Image.open(out) as gif:  # the env's 10 steps a second
+        assert gif.info["duration"] == 100
+
+
+def test_play_records_an_mp4_when_imageio_ffmpeg_is_there(run, tmp_path):
+    pytest.importorskip("imageio_ffmpeg")
+    import imageio.v3 as imageio
+
+    from sfa_gym.agents.rollout import record_rollout
+
+    out = tmp_path / "rollout.mp4"
+    done = record_rollout(run, out, max_steps=3, render_size=64, progress=False)
+    assert done.frames == 4 and done.steps == 3
+    assert imageio.imread(out).shape == (4, 64, 64 + 350, 3)
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["train", "--out", "{tmp}/x", "--reward", "dense"], "reward must be one of"),
+        (["train", "--out", "{tmp}/x", "--n-envs", "0"], "n_envs must be an int of at least 1"),
+        (["train", "--out", "{tmp}/x", "--eval-every", "0"], "eval_every"),
+        (["train", "--out", "{tmp}/x", "--field", "{tmp}/none.npz"], "is not a file"),
+        (["train", "--out", "{tmp}/x", "--oracle"], "oracle needs a field"),
+        (["train", "--out", "{tmp}/x", "--env-id", "sfa_gym/OmniRover-v0"], "env_id must be one"),
+        (["eval", "--run", "{tmp}"], "agent.json does not exist"),
+        (["eval", "--run", "{run}", "--episodes", "0"], "episodes must be an int of at least 1"),
+        (["eval", "--run", "{run}", "--model", "{tmp}/none.zip"], "is not a file"),
+        (["play", "--run", "{run}", "--out", "{tmp}/x.avi"], r"out must end in one of"),
+        (["play", "--run", "{run}", "--out", "{tmp}/x.gif", "--max-steps", "0"], "max_steps"),
+    ],
+)
+def test_bad_arguments_get_a_clear_error(run, tmp_path, capsys, argv, match):
+    argv = [a.format(tmp=tmp_path, run=run) for a in argv]
+    assert main(["agent", *argv, "--quiet"]) == 2
+    assert re.search(match, capsys.readouterr().err)
+    assert not (tmp_path / "x").exists()  # refused before anything is written
+
+
+def test_a_file_that_is_not_a_learning_curve_is_refused(tmp_path):
+    (tmp_path / CURVE).write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError, match="not a learning curve"):
+        load_curve(tmp_path / CURVE)
+
+
+def test_the_memory_holds_feature_changes_beside_the_moves_in_the_body_frame(field_path):
     field = FeatureField.load(field_path)
     k = field.n_features
-    memory = agent.FeatureHistory(field, history=3, stride=1)
+    memory = FeatureHistory(field, history=3, stride=1)
     values = field.values.reshape(-1, k)
     now = np.stack([memory({"features": v, "goal_features": v}, {"odometry": np.zeros(3)}, True)
                     for v in values])[:, k : 2 * k]  # fmt: skip
@@ -117,43 +208,28 @@ def test_the_memory_holds_feature_changes_beside_the_moves_in_the_body_frame(age
     np.testing.assert_allclose(blocks[:, k:], [[0, 0], [0, -1]], atol=1e-6)
 
 
-def test_trains_a_cnn_on_rendered_panoramas(agent, tmp_path):
-    args = _small(agent, tmp_path / "pixels", total_timesteps=64, n_envs=1, n_steps=64,
-                  eval_every=64, eval_episodes=1)  # fmt: skip
-    curve = agent.train(args)
-    assert [row["steps"] for row in curve] == [0, 64]
-    env = agent.make_env(args)
+def test_trains_a_cnn_on_rendered_panoramas(tmp_path):
+    settings = dataclasses.replace(SMALL, total_timesteps=64, n_envs=1, n_steps=64,
+                                   eval_every=64, eval_episodes=1)  # fmt: skip
+    curve = train(tmp_path / "pixels", AgentEnv(), settings, progress=False)
+    assert [row["steps"] for row in curve] == [64]
+    env = make_env(AgentEnv())
     obs, _ = env.reset(seed=0)
     assert obs.shape == (40, 350, 6) and obs.dtype == np.uint8
     env.close()
 
 
-@pytest.mark.parametrize(
-    ("kwargs", "match"),
-    [({"reward": "dense"}, "reward"), ({"eval_every": 0}, "eval_every"), ({"n_envs": 0}, "n_envs")],
-)
-def test_bad_arguments_are_refused(agent, tmp_path, kwargs, match):
-    with pytest.raises(ValueError, match=match):
-        agent.train(_small(agent, tmp_path, **kwargs))
-
-
-def test_a_file_that_is_not_a_learning_curve_is_refused(agent, tmp_path):
-    (tmp_path / agent.CURVE).write_text("a,b\n1,2\n")
-    with pytest.raises(ValueError, match="not a learning curve"):
-        agent.load_curve(tmp_path / agent.CURVE)
-
-
-def test_the_oracle_observes_the_goal_in_the_body_frame(agent, field_path, tmp_path):
-    env = agent.make_env(_small(agent, tmp_path, field=field_path, oracle=True))
+def test_the_oracle_observes_the_goal_in_the_body_frame(field_path):
+    env = make_env(AgentEnv(field=field_path, oracle=True))
     obs, _ = env.reset(seed=0, options={"start": (0.0, 0.0, math.pi / 2), "goal": (1.0, 0.5, 0)})
     # facing north, the goal 1 m east and 0.5 m north is 0.5 m ahead and 1 m to the right
     np.testing.assert_allclose(obs, [0.5, -1.0, 0.0, 1.0], atol=1e-3)
     env.close()
     with pytest.raises(ValueError, match="oracle needs a field"):
-        agent.make_env(_small(agent, tmp_path, oracle=True))
+        make_env(AgentEnv(oracle=True))
 
 
-def test_the_goal_estimate_is_the_goals_displacement_where_features_are_linear(agent):
+def test_the_goal_estimate_is_the_goals_displacement_where_features_are_linear():
     # features linear in position: the local fit is exact, and its Gauss-Newton step (damped
     # by 10 % of the trace) points at the goal
     mixing = np.array([[1.0, 0.2], [-0.3, 0.8], [0.5, 0.5]])
@@ -162,7 +238,7 @@ def test_the_goal_estimate_is_the_goals_displacement_where_features_are_linear(a
     values = np.stack([gx, gy], axis=-1) @ mixing.T
     weights = [1.0, 2.0, 0.5]
     field = FeatureField(values, (-3, 3, -3, 3), metadata={"model_info": {"cost_weights": weights}})
-    memory = agent.FeatureHistory(field, history=2, stride=1, estimate=True)
+    memory = FeatureHistory(field, history=2, stride=1, estimate=True)
     goal = mixing @ [1.0, 2.0]
     out = None
     for i, (x, y) in enumerate([(0, 0), (0.1, 0), (0.1, 0.1), (0.0, 0.15), (0.05, 0.05)]):
@@ -178,11 +254,11 @@ def test_the_goal_estimate_is_the_goals_displacement_where_features_are_linear(a
     assert out.shape == memory.space.shape
 
     with pytest.raises(ValueError, match="cost_weights"):
-        agent.FeatureHistory(FeatureField(values, (-3, 3, -3, 3)), 2, 1, estimate=True)
+        FeatureHistory(FeatureField(values, (-3, 3, -3, 3)), 2, 1, estimate=True)
 
 
-def test_the_range_readings_end_the_observation(agent, field_path, tmp_path):
-    env = agent.make_env(_small(agent, tmp_path, field=field_path, ranges=True))
+def test_the_range_readings_end_the_observation(field_path):
+    env = make_env(AgentEnv(field=field_path, ranges=True))
     obs, info = env.reset(seed=3)
     k = FeatureField.load(field_path).n_features
     rays = env.unwrapped.range_rays
@@ -196,17 +272,36 @@ def test_the_range_readings_end_the_observation(agent, field_path, tmp_path):
     env.close()
 
 
-def test_anneal_lr_decays_the_learning_rate_over_the_budget(agent, field_path, tmp_path):
+def test_anneal_lr_decays_the_learning_rate_over_the_budget(field_path, tmp_path):
     from stable_baselines3 import PPO
 
-    for anneal in (False, True):
-        args = _small(agent, tmp_path / str(anneal), field=field_path, anneal_lr=anneal)
-        agent.train(args)
-        model = PPO.load(args.out / "model.zip", device="cpu")  # our own file
-        rate = model.policy.optimizer.param_groups[0]["lr"]
-        if anneal:
-            # SB3 sets the rate after each rollout: the last one ends the budget
-            assert rate == 0.0
-            assert model.lr_schedule(0.5) == pytest.approx(args.learning_rate / 2)
-        else:
-            assert rate == pytest.approx(args.learning_rate)
+    settings = dataclasses.replace(SMALL, anneal_lr=True)
+    train(tmp_path / "anneal", AgentEnv(field=field_path), settings, progress=False)
+    model = PPO.load(tmp_path / "anneal" / "model.zip", device="cpu")  # our own file
+    # SB3 sets the rate after each rollout: the last one ends the budget
+    assert model.policy.optimizer.param_groups[0]["lr"] == 0.0
+    assert model.lr_schedule(0.5) == pytest.approx(settings.learning_rate / 2)
+
+
+def test_a_missing_package_names_the_extra_to_install():
+    from sfa_gym.cli.agent import _require
+
+    _require("stable_baselines3")  # installed: nothing to say
+    with pytest.raises(ImportError, match=r"no_such_package_here: pip install 'sfa-gym\[sb3\]'"):
+        _require("stable_baselines3", "no_such_package_here")
+
+
+@pytest.mark.parametrize(
+    ("command", "classes"),
+    [("train", (AgentEnv, Training)), ("eval", ()), ("play", ())],
+)
+def test_help_lists_every_setting(command, classes, capsys, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "200")  # one option per line, however long
+    with pytest.raises(SystemExit) as exit_:
+        main(["agent", command, "--help"])
+    assert exit_.value.code == 0
+    printed = capsys.readouterr().out
+    for cls in classes:
+        for field in dataclasses.fields(cls):
+            assert "--" + field.name.replace("_", "-") in printed
+    assert "--quiet" in printed and ("--run" in printed) == (command != "train")

@@ -12,6 +12,8 @@
   (:class:`~sfa_gym.cli.navigate.Navigate`).
 - ``sfa-gym leaderboard run|table``: score methods on the versioned tracks, build the table
   (:class:`~sfa_gym.cli.leaderboard.Leaderboard`).
+- ``sfa-gym agent train|eval|play``: a navigation agent trained with PPO, scored, and recorded
+  as a GIF or MP4 (:class:`~sfa_gym.cli.agent.Agent`).
 - ``sfa-gym export-minari RUN DATASET_ID``: a recorded run as a Minari dataset
   (:class:`~sfa_gym.cli.export.ExportMinari`).
 - ``sfa-gym docs-tables [--check]``: the tables of README.md and docs/ from the committed result
@@ -30,6 +32,7 @@ from typing import Annotated
 
 import tyro
 
+from sfa_gym.cli.agent import Agent
 from sfa_gym.cli.docs import DocsTables
 from sfa_gym.cli.export import ExportMinari
 from sfa_gym.cli.leaderboard import Leaderboard
@@ -47,6 +50,7 @@ Command = (
     | Annotated[LocalizeOutdoor, tyro.conf.subcommand("localize-outdoor")]
     | Annotated[Navigate, tyro.conf.subcommand("navigate")]
     | Annotated[Leaderboard, tyro.conf.subcommand("leaderboard")]
+    | Annotated[Agent, tyro.conf.subcommand("agent")]
     | Annotated[ExportMinari, tyro.conf.subcommand("export-minari")]
     | Annotated[DocsTables, tyro.conf.subcommand("docs-tables")]
 )
@@ -54,7 +58,8 @@ Command = (
 
 DESCRIPTION = (
     "Visual self-localization and navigation with Slow Feature Analysis: record runs of the "
-    "rover, run the paper's localization protocols and the navigation protocol, export runs."
+    "rover, run the paper's localization protocols and the navigation protocol, train and watch "
+    "navigation agents, export runs as Minari datasets."
 )
 
 
@@ -67,6 +72,7 @@ def parse(
     | LocalizeOutdoor
     | Navigate
     | Leaderboard
+    | Agent
     | ExportMinari
     | DocsTables
 ):

@@ -343,6 +343,12 @@ class OmniRoverNavEnv(OmniRoverEnv):
             "goal_features": self._goal_features.copy(),
         }
 
+    def render_panorama(self) -> NDArray[np.uint8]:
+        """The camera's panorama at the current pose, ``(H, W, 3)`` uint8, rendered now: also
+        with a ``feature_field``, whose observations hold no pixels (for recordings)."""
+        gl.check_usable()
+        return self._camera.render(self.data)
+
     def _nav_info(self, x: float, y: float, yaw: float) -> dict[str, Any]:
         """The info dict at the current pose ``(x, y, yaw)`` (read once per step by the caller)."""
         return self._info((x, y, yaw)) | {

@@ -1,14 +1,17 @@
-"""A stored run checked against the recording itself: samples rendered again and compared.
+"""A stored run checked against the recording itself: the run made again and compared.
 
 A run file's checksums say only that its chunks are the bytes its header lists; whoever can
-write both can change both. Rendering is deterministic (same request, same pixels), so a sample
-rendered again from the request is a check that needs nothing stored beside the run:
+write both can change both. Recording is deterministic (same request, same poses, same pixels),
+so samples made again from the request are a check that needs nothing stored beside the run:
 
 - a pose-list run (:class:`~sfa_gym.recording.drivers.GridPositions`: the localization grids)
-  resets the env once per sample, so every stored pose is compared with the pose list and any
-  sample can be rendered alone;
-- a driven run reaches sample ``i`` only through the ``i`` steps before it, so only its first
-  sample (the reset) is rendered again; its later samples are as good as their checksums.
+  resets the env once per sample: every stored pose is compared with the pose list, and the
+  first panorama and :data:`SAMPLES` more are rendered again;
+- a driven run is driven again without rendering (neither the driver nor the physics looks at
+  pixels): every stored action and pose is compared, a few seconds for the 8,700 frames of the
+  outdoor protocol against minutes for their render. Its first panorama is rendered again, and
+  :data:`SAMPLES` more where the camera has no state that carries from frame to frame (a
+  sensor's exposure does; then the first panorama only).
 
 Which samples are rendered is drawn afresh by every check (from the operating system's
 entropy), so that no one can forge exactly the samples that will not be looked at.
@@ -27,17 +30,15 @@ import numpy as np
 __all__ = ["POSE_TOLERANCE", "SAMPLES", "rerender_mismatch"]
 
 SAMPLES = 2
-"""Samples of a pose-list run rendered again per check (besides its first pose)."""
+"""Panoramas rendered again per check besides the first."""
 
 POSE_TOLERANCE = 1e-6
-"""The largest difference, metres or radians, between a stored pose and the one asked for."""
+"""The largest difference, metres or radians, between a stored pose and the one made again."""
 
 
-def _sample_indices(n: int, pose_list: bool) -> list[int]:
-    if not pose_list or n <= 1:
-        return [0]
-    chosen = random.SystemRandom().sample(range(1, n), min(SAMPLES, n - 1))
-    return [0, *sorted(chosen)]
+def _sample_indices(n: int) -> set[int]:
+    chosen = random.SystemRandom().sample(range(1, n), min(SAMPLES, n - 1)) if n > 1 else []
+    return {0, *chosen}
 
 
 def _pose_difference(found: Sequence[float], stored: Sequence[float]) -> float:
@@ -46,50 +47,88 @@ def _pose_difference(found: Sequence[float], stored: Sequence[float]) -> float:
     return max(abs(x), abs(y), yaw)
 
 
-def _start(env: gym.Env, request: Any) -> dict[str, Any] | None:
-    """The reset options of a driven run, as :func:`~sfa_gym.recording.recorder.record` sets
-    them (the driver's start pose after its reset; the request's driver is left untouched)."""
-    from sfa_gym.recording.drivers import env_attribute
-    from sfa_gym.recording.recorder import _control_period
+def _compare(i: int, obs: Any, info: Any, run: Any, render: bool) -> str | None:
+    from sfa_gym.recording.recorder import _pose_of
 
-    driver = copy.deepcopy(request.driver)
-    driver.reset(env_attribute(env, "arena_bounds"), dt=_control_period(env), seed=request.seed)
-    return None if driver.start_pose is None else {"pose": driver.start_pose}
+    if _pose_difference(_pose_of(info), run.poses[i]) > POSE_TOLERANCE:
+        return f"sample {i}: stored pose {run.poses[i].tolist()}, made again {_pose_of(info)}"
+    if render and not np.array_equal(np.asarray(obs), run.panoramas[i]):
+        return f"sample {i}: the stored panorama differs from the one rendered again"
+    return None
 
 
 def rerender_mismatch(request: Any, run: Any) -> str | None:
-    """Render samples of ``run`` again from ``request`` (a
-    :class:`~sfa_gym.recording.cache.RunRequest`) and compare them with the stored ones.
+    """Make samples of ``run`` again from ``request`` (a
+    :class:`~sfa_gym.recording.cache.RunRequest`) and compare them with the stored ones (see
+    the module docstring).
 
     Returns:
-        None if every sample matches (pixels exactly, poses within :data:`POSE_TOLERANCE`),
-        else what differs (the sample and the array).
+        None if everything compared matches (pixels and actions exactly, poses within
+        :data:`POSE_TOLERANCE`), else what differs (the sample and the array).
     """
     from sfa_gym.recording.drivers import GridPositions
-    from sfa_gym.recording.recorder import _pose_of, _pose_seed
 
-    pose_list = isinstance(request.driver, GridPositions)
     if run.metadata.get("seed") != int(request.seed):
         return f"the run was recorded with seed {run.metadata.get('seed')!r}, not {request.seed}"
-    env = gym.make(request.env_id, **request.record_kwargs())
+    # as record() makes it: the run's length is the request's, not the registered time limit
+    limit = (request.n_steps or 0) + 10**9
+    env = gym.make(request.env_id, max_episode_steps=limit, **request.record_kwargs())
     try:
-        if pose_list:
-            poses = np.asarray(request.driver.poses(env), dtype=np.float64)
-            if len(run) > len(poses):
-                return f"{len(run)} samples stored, but the grid has only {len(poses)} poses"
-            for i in range(len(run)):
-                if _pose_difference(run.poses[i], poses[i]) > POSE_TOLERANCE:
-                    return f"sample {i}: stored pose {run.poses[i].tolist()}, asked {poses[i]}"
-        for i in _sample_indices(len(run), pose_list):
-            if pose_list:
-                options = {"pose": tuple(poses[i])}
-                obs, info = env.reset(seed=_pose_seed(int(request.seed), i), options=options)
-            else:
-                obs, info = env.reset(seed=int(request.seed), options=_start(env, request))
-            if _pose_difference(_pose_of(info), run.poses[i]) > POSE_TOLERANCE:
-                return f"sample {i}: stored pose {run.poses[i].tolist()}, rendered {_pose_of(info)}"
-            if not np.array_equal(np.asarray(obs), run.panoramas[i]):
-                return f"sample {i}: the stored panorama differs from the one rendered again"
+        if isinstance(request.driver, GridPositions):
+            return _pose_list_mismatch(env, request, run)
+        return _drive_mismatch(env, request, run)
     finally:
         env.close()
+
+
+def _pose_list_mismatch(env: gym.Env, request: Any, run: Any) -> str | None:
+    from sfa_gym.recording.recorder import _pose_seed
+
+    poses = np.asarray(request.driver.poses(env), dtype=np.float64)
+    if len(run) > len(poses):
+        return f"{len(run)} samples stored, but the grid has only {len(poses)} poses"
+    for i in range(len(run)):
+        if _pose_difference(run.poses[i], poses[i]) > POSE_TOLERANCE:
+            return f"sample {i}: stored pose {run.poses[i].tolist()}, asked {poses[i]}"
+    for i in sorted(_sample_indices(len(run))):
+        seed = _pose_seed(int(request.seed), i)
+        obs, info = env.reset(seed=seed, options={"pose": tuple(poses[i])})
+        found = _compare(i, obs, info, run, render=True)
+        if found is not None:
+            return found
+    return None
+
+
+def _drive_mismatch(env: gym.Env, request: Any, run: Any) -> str | None:
+    from sfa_gym.recording.drivers import env_attribute
+    from sfa_gym.recording.recorder import _control_period
+
+    driver = copy.deepcopy(request.driver)  # the request's own is left untouched
+    dt = _control_period(env)
+    driver.reset(env_attribute(env, "arena_bounds"), dt=dt, seed=request.seed)
+    options = None if driver.start_pose is None else {"pose": driver.start_pose}
+    obs, info = env.reset(seed=int(request.seed), options=options)
+    found = _compare(0, obs, info, run, render=True)
+    if found is not None:
+        return found
+    base = env.unwrapped
+    stateless = getattr(base, "_sensor", None) is None
+    samples = _sample_indices(len(run)) if stateless else {0}
+    observe = base._observe
+    blank = np.zeros(run.panoramas.shape[1:], dtype=np.uint8)
+    low = env.action_space.low.astype(np.float32)
+    high = env.action_space.high.astype(np.float32)
+    try:
+        for i in range(1, len(run)):
+            action = np.clip(driver(info), low, high)
+            if not np.array_equal(action, run.actions[i]):
+                return f"sample {i}: stored action {run.actions[i].tolist()}, made {action}"
+            # the physics and the driver never look at pixels: render only the samples
+            base._observe = observe if i in samples else (lambda _dt: blank.copy())
+            obs, _, _, _, info = env.step(action)
+            found = _compare(i, obs, info, run, render=i in samples)
+            if found is not None:
+                return found
+    finally:
+        vars(base).pop("_observe", None)  # the class's method again
     return None
