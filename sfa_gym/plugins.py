@@ -293,10 +293,12 @@ class Plugin:
         command line its help text."""
         import docstring_parser  # tyro's docstring reader
 
-        docs = {
-            param.arg_name: " ".join((param.description or "").split())
-            for param in docstring_parser.parse_from_object(self.args_type).params
-        }
+        docs: dict[str, str] = {}
+        # a subclass's own docstrings over those of the fields it inherits
+        for klass in reversed(self.args_type.__mro__):
+            if dataclasses.is_dataclass(klass):
+                for param in docstring_parser.parse_from_object(klass).params:
+                    docs[param.arg_name] = " ".join((param.description or "").split())
         return [dataclasses.replace(a, doc=docs.get(a.name, "")) for a in self._defaults()]
 
     def _check_made(self, made: Any, methods: tuple[str, ...], usage: str) -> None:

@@ -73,7 +73,9 @@ def test_the_loader_refuses_bad_arguments_naming_the_field_and_the_value():
     with pytest.raises(ValueError, match=r"argument regressor must be str, got 3"):
         load_method("band_means", {"regressor": 3})
     # Literal fields list their choices; JSON lists become tuples; ints are floats where wanted
-    with pytest.raises(ValueError, match=r"network must be one of \['paper_sim', 'paper_outdoor'"):
+    with pytest.raises(
+        ValueError, match=r"network must be one of \['auto', 'paper_sim', 'paper_outdoor'"
+    ):
         load_method("sfa", {"network": "paper"})
     sfa = load_method_plugin("sfa")
     assert sfa.arguments({"node_dim": 16})["node_dim"] == 16
