@@ -137,6 +137,12 @@ def ordered_map(fn: Callable[[T], R], items: Iterable[T], workers: int) -> Itera
     At most ``workers`` calls run at a time (one more may wait in the queue), so the working
     memory is bounded by ``workers`` chunks. With ``workers == 1`` everything runs in the
     calling thread.
+
+    Why not ``ThreadPoolExecutor.map``: before Python 3.14 (its ``buffersize``) it submits every
+    item at once, so finished results pile up while the caller consumes them; the SFA passes
+    return per-chunk moment copies of up to ``_sources.PARTIAL_BYTES`` (256 MB) each and merge
+    them in the calling thread, so an unbounded run-ahead could hold all of them at once. The
+    window below is that ``buffersize`` (``workers + 1``); the executor does the rest.
     """
     items = list(items)
     if workers <= 1 or len(items) <= 1:
