@@ -67,8 +67,8 @@ class LeaderboardRun:
     tracks: Path | None = None
     """folder of track files (default: tracks/ of the checkout)"""
     cache: Path | None = None
-    """render cache folder (default: $SFA_GYM_CACHE or ~/.cache/sfa-gym/runs); on a cluster,
-    a folder every node sees"""
+    """render cache folder (default: $SFA_GYM_CACHE, else ~/.cache/sfa-gym/runs on Linux or
+    $XDG_CACHE_HOME/sfa-gym/runs where that is set); on a cluster, a folder every node sees"""
     time_limits: tuple[str, ...] = ()
     """wall-clock limits of the calls into the plug-ins, NAME=SECONDS (e.g. fit=3600
     transform=600; names: load, fit, transform, reset, act), over the tracks' time_limits, over
