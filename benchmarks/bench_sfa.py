@@ -551,6 +551,9 @@ def run(cfg: BenchConfig, progress: bool = True) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # argparse here, tyro in the other scripts: the script runs itself again in child processes
+    # (_run_child) with two options a user never sets; argparse.SUPPRESS hides them from --help
+    # and still parses them, which tyro's suppressed fields do not.
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     d = BenchConfig()
     parser.add_argument("--frames", type=int, default=d.frames, help="training views 40x350")
