@@ -144,8 +144,10 @@ def test_partial_statistics_merge_to_the_serial_result():
 
 
 def _blas_threads() -> list[int]:
-    """Thread counts of the BLAS libraries in this process, as threadpoolctl sees them."""
-    return [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+    """Thread counts of the engine's BLAS libraries (numpy's and scipy's; not one another
+    package loads later), as a fresh threadpoolctl scan sees them."""
+    engine = {lib["filepath"] for lib in _parallel._blas().info()}
+    return [lib["num_threads"] for lib in threadpool_info() if lib["filepath"] in engine]
 
 
 def _two_blas_threads() -> list[int]:
