@@ -34,7 +34,6 @@ Usage (from the repository root)::
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import time
@@ -43,6 +42,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+import tyro
 
 from sfa_gym.sim import gl
 
@@ -424,19 +424,23 @@ def camera_specs(width: int, height: int, quick: bool = False) -> list[PanoramaS
     ]
 
 
+@dataclass(frozen=True)
+class Args:
+    quick: bool = False
+    """one size, few calls (smoke run)"""
+    n: int = 40
+    """calls per timed batch"""
+    repeats: int = 9
+    """batches; the median counts"""
+    lp_threads: int | None = None
+    """set LP_NUM_THREADS (llvmpipe rasteriser threads; 0 = the calling thread; None: Mesa's
+    default)"""
+    png: Path | None = None
+    """write the panoramas here (None: nowhere)"""
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="one size, few calls (smoke run)")
-    parser.add_argument("--n", type=int, default=40, help="calls per timed batch")
-    parser.add_argument("--repeats", type=int, default=9, help="batches; the median counts")
-    parser.add_argument(
-        "--lp-threads",
-        type=int,
-        default=None,
-        help="set LP_NUM_THREADS (llvmpipe rasteriser threads; 0 = the calling thread)",
-    )
-    parser.add_argument("--png", type=Path, default=None, help="write the panoramas here")
-    args = parser.parse_args(argv)
+    args = tyro.cli(Args, args=argv, description=__doc__.split("\n\n")[0])
     if args.lp_threads is not None:
         # Read by Mesa when the first GL context is made, which happens below.
         os.environ["LP_NUM_THREADS"] = str(args.lp_threads)

@@ -41,15 +41,16 @@ Writes ``published/benchmarks/field.json`` (``--json``) and prints a table.
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tyro
 from tqdm import tqdm
 
 from sfa_gym.experiments.grid import GridExperiment
@@ -313,16 +314,22 @@ def format_table(results: dict) -> str:
     return "\n".join(lines)
 
 
+@dataclass(frozen=True)
+class Args:
+    quick: bool = False
+    """small smoke run"""
+    poses: int | None = None
+    """random poses (None: 200; quick 40)"""
+    headings: int | None = None
+    """headings per pose (None: 8; quick 4)"""
+    seed: int = 1
+    """seed of the random poses"""
+    json: Path = ROOT / "published" / "benchmarks" / "field.json"
+    """where the figures are written"""
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="small smoke run")
-    parser.add_argument("--poses", type=int, default=None, help="random poses (200; quick 40)")
-    parser.add_argument("--headings", type=int, default=None, help="headings per pose (8; 4)")
-    parser.add_argument("--seed", type=int, default=1, help="seed of the random poses")
-    parser.add_argument(
-        "--json", type=Path, default=ROOT / "published" / "benchmarks" / "field.json"
-    )
-    args = parser.parse_args(argv)
+    args = tyro.cli(Args, args=argv, description=__doc__.split("\n\n")[0])
     if args.quick:
         settings, grid, n_train, spacings = SFASettings(node_dim=16), 12, 100, [0.1]
     else:

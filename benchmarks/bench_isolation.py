@@ -19,19 +19,20 @@ Usage (from the repository root)::
 
 from __future__ import annotations
 
-import argparse
 import os
 import platform
 import statistics
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks.bench_leaderboard import ROOT, _load, _write, method_file
+import tyro
+
+from benchmarks.bench_leaderboard import ROOT, _load, _write, method_file, select_tracks
 from sfa_gym.leaderboard.evaluate import Task, run_task
 from sfa_gym.leaderboard.results import git_commit
-from sfa_gym.leaderboard.tracks import list_tracks
 from sfa_gym.sandbox import IN_PROCESS, isolation
 
 
@@ -89,24 +90,25 @@ def isolation_costs(
     return rows
 
 
+@dataclass(frozen=True)
+class Args:
+    methods: tuple[str, ...] = ("band_means",)
+    """baseline names (baselines/<name>.py) or method files"""
+    tracks: tuple[str, ...] | None = None
+    """track names (None: every track)"""
+    repeats: int = 1
+    """runs of each task each way"""
+    cache: Path | None = None
+    """render cache (None: a fresh temporary folder)"""
+    json: Path = ROOT / "published/benchmarks/isolation_bench.json"
+    """where the figures are written"""
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--methods", nargs="+", default=["band_means"])
-    parser.add_argument("--tracks", nargs="+", default=None, help="track names (default: all)")
-    parser.add_argument("--repeats", type=int, default=1, help="runs of each task each way")
-    parser.add_argument("--cache", type=Path, default=None, help="render cache (default: fresh)")
-    parser.add_argument(
-        "--json", type=Path, default=ROOT / "published/benchmarks/isolation_bench.json"
-    )
-    args = parser.parse_args(argv)
+    args = tyro.cli(Args, args=argv, description=__doc__.split("\n")[0])
     if args.repeats < 1:
-        parser.error(f"--repeats must be >= 1, got {args.repeats}")
-    tracks = list_tracks(ROOT / "tracks")
-    if args.tracks is not None:
-        unknown = sorted(set(args.tracks) - {t.name for t in tracks})
-        if unknown:
-            parser.error(f"--tracks {unknown[0]!r} is not a track")
-        tracks = [t for t in tracks if t.name in args.tracks]
+        raise SystemExit(f"--repeats must be >= 1, got {args.repeats}")
+    tracks = select_tracks(args.tracks)
     cache = str(args.cache or tempfile.mkdtemp(prefix="sfa-gym-bench-cache-"))
     started = time.perf_counter()
     rows = isolation_costs(tracks, args.methods, cache, args.repeats)

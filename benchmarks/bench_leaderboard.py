@@ -44,7 +44,6 @@ Usage (from the repository root; ~15-20 min on 2 cores, plus the outdoor tracks)
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import json
 import os
@@ -52,8 +51,11 @@ import platform
 import tempfile
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import tyro
 
 import sfa_gym
 from sfa_gym.files import write_json_atomic
@@ -271,45 +273,52 @@ def ray_speedup(tasks: list[Task], workers: tuple[int, ...]) -> dict[str, Any]:
     return out
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--cache", type=Path, default=None, help="render cache (default: fresh)")
-    parser.add_argument("--results", type=Path, default=ROOT / "results" / "leaderboard_bench")
-    parser.add_argument(
-        "--json", type=Path, default=ROOT / "published/benchmarks/leaderboard_bench.json"
-    )
-    parser.add_argument(
-        "--board-method",
-        nargs="+",
-        default=["band_means"],
-        help="methods of the quick board: names in baselines/ or plug-in paths",
-    )
-    parser.add_argument("--ray-methods", nargs="+", default=["band_means", "fft_magnitude"])
-    parser.add_argument("--skip-board", action="store_true", help="only the Ray speed-up")
-    parser.add_argument("--skip-ray", action="store_true", help="only the quick board")
-    parser.add_argument("--tracks", nargs="+", default=None, help="track names (default: all)")
-    parser.add_argument(
-        "--full-size",
-        metavar="METHOD",
-        help="instead of the quick board and Ray: one full-size task per track with METHOD, "
-        "timed, and the full board's time per track estimated from it",
-    )
-    parser.add_argument(
-        "--compare",
-        metavar="REV",
-        help="with --full-size: run each task again by the code of git commit REV (a temporary "
-        "worktree) and print the ratio of the times without rendering",
-    )
-    args = parser.parse_args(argv)
+@dataclass(frozen=True)
+class Args:
+    cache: Path | None = None
+    """render cache (None: a fresh temporary folder)"""
+    results: Path = ROOT / "results" / "leaderboard_bench"
+    """results folder of the quick board"""
+    json: Path = ROOT / "published/benchmarks/leaderboard_bench.json"
+    """where the figures are written"""
+    board_method: tuple[str, ...] = ("band_means",)
+    """methods of the quick board: names in baselines/ or plug-in paths"""
+    ray_methods: tuple[str, ...] = ("band_means", "fft_magnitude")
+    """methods of the Ray speed-up"""
+    skip_board: bool = False
+    """only the Ray speed-up"""
+    skip_ray: bool = False
+    """only the quick board"""
+    tracks: tuple[str, ...] | None = None
+    """track names (None: every track)"""
+    full_size: str | None = None
+    """instead of the quick board and Ray: one full-size task per track with this METHOD, timed,
+    and the full board's time per track estimated from it"""
+    compare: str | None = None
+    """with --full-size: run each task again by the code of git commit REV (a temporary
+    worktree) and print the ratio of the times without rendering"""
 
+
+def select_tracks(names: tuple[str, ...] | None) -> list[Any]:
+    """The tracks of ``tracks/`` named by ``names`` (None: all), in the folder's order.
+
+    Raises:
+        SystemExit: a name that is no track.
+    """
+    tracks = list_tracks(ROOT / "tracks")
+    if names is None:
+        return tracks
+    unknown = sorted(set(names) - {t.name for t in tracks})
+    if unknown:
+        raise SystemExit(f"--tracks {unknown[0]!r} is not a track")
+    return [t for t in tracks if t.name in names]
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = tyro.cli(Args, args=argv, description=__doc__.split("\n")[0])
     cache_root = args.cache or Path(tempfile.mkdtemp(prefix="sfa-gym-bench-cache-"))
     cache = RunCache(cache_root)
-    tracks = list_tracks(ROOT / "tracks")
-    if args.tracks is not None:
-        unknown = sorted(set(args.tracks) - {t.name for t in tracks})
-        if unknown:
-            parser.error(f"--tracks {unknown[0]!r} is not a track")
-        tracks = [t for t in tracks if t.name in args.tracks]
+    tracks = select_tracks(args.tracks)
     report: dict[str, Any] = {
         "sfa_gym_version": sfa_gym.__version__,
         "git_commit": git_commit(ROOT),

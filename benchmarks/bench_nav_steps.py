@@ -32,26 +32,27 @@ Usage (from the repository root)::
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # per core: no hidden threads in numpy's BLAS
 
 import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
+import tyro  # noqa: E402
 
 import sfa_gym  # noqa: E402, F401  (registers the ids)
 from sfa_gym.files import write_json_atomic
 from sfa_gym.navigation.controllers import GradientController  # noqa: E402
 from sfa_gym.navigation.field import FeatureField  # noqa: E402
 
-ENVS = [
+ENVS = (
     "sfa_gym/OmniRoverNav-v0",
     "sfa_gym/OmniRoverNavObstacles-v0",
     "sfa_gym/OmniRoverNavMaze-v0",
-]
+)
 
 
 def random_field(env_id: str, spacing: float = 0.1, k: int = 8, seed: int = 0) -> FeatureField:
@@ -132,15 +133,21 @@ def measure(env_id: str, steps: int, block: int, rendered_steps: int) -> list[tu
     return [(name, r.rate) for name, r in runners.items()] + [("rendered panoramas", rendered.rate)]
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--env", nargs="+", default=ENVS, help="navigation env ids")
-    parser.add_argument("--steps", type=int, default=20_000, help="steps per measurement")
-    parser.add_argument("--block", type=int, default=500, help="steps per interleaved block")
-    parser.add_argument("--rendered-steps", type=int, default=100, help="rendered steps")
-    parser.add_argument("--json", type=Path, default=None, help="write the figures here")
-    args = parser.parse_args()
+@dataclass(frozen=True)
+class Args:
+    env: tuple[str, ...] = ENVS
+    """navigation env ids"""
+    steps: int = 20_000
+    """steps per measurement"""
+    block: int = 500
+    """steps per interleaved block"""
+    rendered_steps: int = 100
+    """rendered steps"""
+    json: Path | None = None
+    """write the figures here (None: print them only)"""
 
+
+def main(args: Args) -> None:
     results = {}
     for env_id in args.env:
         rows = measure(env_id, args.steps, args.block, args.rendered_steps)
@@ -164,4 +171,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(tyro.cli(Args, description=__doc__.split("\n")[0]))

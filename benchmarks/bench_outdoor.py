@@ -20,14 +20,15 @@ Usage (from the repository root)::
 
 from __future__ import annotations
 
-import argparse
 import json
 import statistics
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import tyro
 from tqdm import tqdm
 
 import sfa_gym  # noqa: F401  (registers the ids)
@@ -44,14 +45,19 @@ CASES = {
 REFERENCE = "paper_sim"
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--steps", type=int, default=40, help="steps per batch")
-    parser.add_argument("--repeats", type=int, default=5, help="interleaved batches per env")
-    parser.add_argument("--out", type=Path, default=Path("published/benchmarks/outdoor.json"))
-    args = parser.parse_args()
+@dataclass(frozen=True)
+class Args:
+    steps: int = 40
+    """steps per batch"""
+    repeats: int = 5
+    """interleaved batches per env"""
+    out: Path = Path("published/benchmarks/outdoor.json")
+    """where the figures are written"""
+
+
+def main(args: Args) -> None:
     if args.steps < 1 or args.repeats < 1:
-        parser.error(f"--steps and --repeats must be >= 1, got {args.steps}, {args.repeats}")
+        raise SystemExit(f"--steps and --repeats must be >= 1, got {args.steps}, {args.repeats}")
 
     envs = {name: make() for name, make in CASES.items()}
     action = np.array([0.3, 0.2], np.float32)
@@ -85,4 +91,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(tyro.cli(Args, description=__doc__.split("\n")[0]))

@@ -150,25 +150,16 @@ def blas_cores() -> dict[str, str]:
     ``OPENBLAS_CORETYPE`` (set on some machines for old OpenBLAS builds) forces a kernel; an
     older kernel than the CPU supports makes every product slower, so the results record it.
     """
-    import ctypes
-    import glob
-
     import scipy
+    import scipy.linalg  # noqa: F401  (loads scipy's OpenBLAS, so that threadpoolctl sees it)
+    from threadpoolctl import threadpool_info
 
     cores = {}
-    for pkg in (np, scipy):
-        libs = glob.glob(os.path.join(os.path.dirname(pkg.__file__) + ".libs", "*openblas*"))
-        for lib in libs:
-            try:
-                handle = ctypes.CDLL(lib)
-            except OSError:
-                continue
-            for name in ("scipy_openblas_get_corename64_", "scipy_openblas_get_corename"):
-                fn = getattr(handle, name, None)
-                if fn is not None:
-                    fn.restype = ctypes.c_char_p
-                    cores[pkg.__name__] = fn().decode()
-                    break
+    for lib in threadpool_info():
+        for pkg in (np, scipy):
+            here = os.path.dirname(lib["filepath"]) == os.path.dirname(pkg.__file__) + ".libs"
+            if here and lib["internal_api"] == "openblas" and lib.get("architecture"):
+                cores[pkg.__name__] = lib["architecture"]
     return cores
 
 
@@ -560,6 +551,9 @@ def run(cfg: BenchConfig, progress: bool = True) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # argparse here, tyro in the other scripts: the script runs itself again in child processes
+    # (_run_child) with two options a user never sets; argparse.SUPPRESS hides them from --help
+    # and still parses them, which tyro's suppressed fields do not.
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     d = BenchConfig()
     parser.add_argument("--frames", type=int, default=d.frames, help="training views 40x350")

@@ -15,12 +15,14 @@ The numbers depend on the machine and its load; BLAS threads follow ``OPENBLAS_N
 
 from __future__ import annotations
 
-import argparse
 import json
 import resource
 import time
 import warnings
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import tyro
 
 from sfa_gym.rotation import rotated_views
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
@@ -116,30 +118,37 @@ def benchmark_view_training(
     }
 
 
+@dataclass(frozen=True)
+class Args:
+    preset: Literal["paper_outdoor", "paper_sim"] = "paper_outdoor"
+    """network preset (and its panorama size, PRESET_SHAPES)"""
+    locations: int = 5900
+    """training locations of the rotation training"""
+    views: int = 0
+    """train on this many path frames instead (fit); 0: rotation training"""
+    step: int = 5
+    """rotation step, columns"""
+    rows: bool = False
+    """one node per grid row (rotation training only)"""
+    dtype: Literal["float32", "float64"] = "float32"
+    """the network's float type"""
+    seed: int = 0
+    """seed of the synthetic panoramas"""
+    progress: bool = True
+    """progress bars (--no-progress: none)"""
+
+
 def main(argv: list[str] | None = None) -> None:
     """Command line: print the benchmark result as JSON."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default="paper_outdoor", choices=sorted(PRESET_SHAPES))
-    parser.add_argument("--locations", type=int, default=5900)
-    parser.add_argument(
-        "--views", type=int, default=0, help="train on this many path frames instead (fit)"
-    )
-    parser.add_argument("--step", type=int, default=5)
-    parser.add_argument(
-        "--rows", action="store_true", help="one node per grid row (rotation training only)"
-    )
-    parser.add_argument("--dtype", default="float32", choices=["float32", "float64"])
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--no-progress", action="store_true")
-    args = parser.parse_args(argv)
+    args = tyro.cli(Args, args=argv, description=__doc__.splitlines()[0])
     if args.views:
         result = benchmark_view_training(
-            args.preset, args.views, args.seed, args.dtype, progress=not args.no_progress
+            args.preset, args.views, args.seed, args.dtype, progress=args.progress
         )
     else:
         result = benchmark_rotation_training(
             args.preset, args.locations, args.step, args.seed, args.dtype,
-            progress=not args.no_progress, weight_sharing="rows" if args.rows else "layer",
+            progress=args.progress, weight_sharing="rows" if args.rows else "layer",
         )  # fmt: skip
     print(json.dumps(result, indent=2))
 

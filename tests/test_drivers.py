@@ -15,6 +15,7 @@ from sfa_gym.recording.drivers import (
     LoopDriver,
     RandomWalkDriver,
     WaypointDriver,
+    _route,
 )
 from sfa_gym.sim.steering import Steering
 
@@ -345,3 +346,16 @@ def test_a_stuck_rover_gives_up_the_segment_and_the_drive_ends():
     _, actions = simulate(driver, lag=0.0, n=5000)  # the rover never moves
     assert driver.done and driver.skipped_ == 2
     assert len(actions) < 1000
+
+
+def test_route_around_a_rectangle_keeps_its_ties_and_stays_in_the_area():
+    # the recorded runs depend on which of two equally long detours is taken: pin it
+    square, arena = (-0.5, 0.5, -0.5, 0.5), (-3.0, 3.0, -3.0, 3.0)
+    c = 0.500001  # corners are pushed out by 1e-6
+    assert _route((-1.0, 0.0), (1.0, 0.0), square, arena) == [(-c, -c), (c, -c)]
+    assert _route((0.0, -1.0), (0.0, 1.0), square, arena) == [(c, -c), (c, c)]
+    # only the corners inside the area are used
+    assert _route((0.0, -1.0), (0.0, 1.0), square, (-3.0, 0.5, -3.0, 3.0)) == [(-c, -c), (-c, c)]
+    assert _route((-1.0, 0.8), (1.0, 0.8), square, arena) == []
+    with pytest.raises(ValueError, match="no path"):
+        _route((-1.0, 0.0), (1.0, 0.0), square, (-3.0, 3.0, -0.2, 0.2))

@@ -283,6 +283,23 @@ def test_two_processes_asking_for_the_same_run_render_it_once(tmp_path):
     assert not list(tmp_path.glob(".*tmp*"))
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="the Linux folders")
+def test_the_default_cache_folder_is_the_users_cache_unless_sfa_gym_cache_says(
+    tmp_path, monkeypatch
+):
+    from sfa_gym.recording.cache import default_cache_dir
+
+    monkeypatch.delenv("SFA_GYM_CACHE", raising=False)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    assert default_cache_dir() == tmp_path / ".cache" / "sfa-gym" / "runs"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "scratch"))
+    assert default_cache_dir() == tmp_path / "scratch" / "sfa-gym" / "runs"
+    monkeypatch.setenv("SFA_GYM_CACHE", str(tmp_path / "shared"))
+    assert default_cache_dir() == tmp_path / "shared"
+    assert RunCache().root == tmp_path / "shared"
+
+
 def test_a_truncated_entry_is_detected_and_rendered_again(tmp_path):
     cache = RunCache(tmp_path)
     # what a render killed in another process leaves behind

@@ -4,6 +4,7 @@ errors."""
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -97,6 +98,46 @@ def test_markdown_prints_the_table_and_writes_nothing(tmp_path, capsys):
     assert f"no results of yours under {empty}" in captured.err
     assert "| band_means | reference |" in captured.out
     assert not empty.exists()
+
+
+def test_csv_holds_the_cells_of_the_markdown_table_with_their_numbers(tmp_path, capsys):
+    mine = tmp_path / "results" / "few_labels" / "my_method.quick.json"
+    mine.parent.mkdir(parents=True)
+    mine.write_text(json.dumps(_result("few_labels", "my_method", {100: 3.25, 101: 3.75})))
+    path = tmp_path / "board" / "leaderboard.csv"
+    args = ["leaderboard", "table", "--markdown", "--results", str(mine.parents[1])]
+    assert main([*args, "--csv", str(path)]) == 0
+    markdown = capsys.readouterr().out
+    with open(path, newline="", encoding="utf-8") as file:
+        rows = list(csv.DictReader(file))
+    # a line per filled cell of the markdown table, in its order
+    lines = [line for line in markdown.split("\n\n")[2].splitlines()[2:]]
+    header = markdown.split("\n\n")[2].splitlines()[0].split(" | ")[2:]
+    header[-1] = header[-1].rstrip(" |")
+    cells = [
+        (line.split(" | ")[0][2:], line.split(" | ")[1], column)
+        for line in lines
+        for column, cell in zip(header, line.rstrip(" |").split(" | ")[2:], strict=True)
+        if cell != "-"
+    ]
+    assert [(r["method"], r["source"], r["column"]) for r in rows] == cells
+    yours = next(r for r in rows if r["source"] == "yours")
+    assert yours["column"] == "few_labels (quick)" and yours["track"] == "few_labels"
+    assert float(yours["mean"]) == 3.5 and yours["n"] == "2" and yours["ci95_low"] == ""
+    assert yours["quick"] == "True" and yours["higher_is_better"] == "False"
+    # the reference numbers as stored, not as printed
+    reference = {
+        (r["method"]["label"], r["track"]["name"]): r["score"]
+        for r in load_results(reference_folder())
+        if not r["track"]["quick"]
+    }
+    full = [r for r in rows if r["source"] == REFERENCE and r["quick"] == "False"]
+    assert full
+    for r in full:
+        score = reference[(r["method"], r["track"])]
+        assert float(r["mean"]) == score["mean"]
+        if score["ci95"]:
+            assert [float(r["ci95_low"]), float(r["ci95_high"])] == score["ci95"]
 
 
 def test_a_gathered_entry_without_a_field_is_named(tmp_path):

@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_info, threadpool_limits
 
 from sfa_gym.sfa import _parallel
 from sfa_gym.sfa._fourth import QuadraticGram, pair_groups
@@ -142,16 +143,66 @@ def test_partial_statistics_merge_to_the_serial_result():
         merged.merge(serial)
 
 
-@pytest.mark.skipif(not _parallel.blas_controllable(), reason="no OpenBLAS in this process")
+def _blas_threads() -> list[int]:
+    """Thread counts of the engine's BLAS libraries (numpy's and scipy's; not one another
+    package loads later), as a fresh threadpoolctl scan sees them."""
+    engine = {lib["filepath"] for lib in _parallel._blas().info()}
+    return [lib["num_threads"] for lib in threadpool_info() if lib["filepath"] in engine]
+
+
+def _two_blas_threads() -> list[int]:
+    """The thread counts under ``threadpool_limits(2)``; skips where BLAS caps them lower (one
+    CPU), since the tests could then not tell a limit from no limit."""
+    before = _blas_threads()
+    if not before or any(n != 2 for n in before):
+        pytest.skip(f"BLAS runs {before} threads when asked for 2")
+    return before
+
+
+@pytest.mark.skipif(not _parallel.blas_controllable(), reason="no BLAS threadpoolctl can control")
 def test_single_threaded_blas_is_scoped_and_nestable():
-    handles = _parallel._openblas_handles()
-    before = [get() for get, _ in handles]
-    with _parallel.single_threaded_blas():
-        assert all(get() == 1 for get, _ in handles)
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = _two_blas_threads()
         with _parallel.single_threaded_blas():
-            assert all(get() == 1 for get, _ in handles)
-        assert all(get() == 1 for get, _ in handles)
-    assert [get() for get, _ in handles] == before
+            assert _blas_threads() == [1] * len(before)
+            with _parallel.single_threaded_blas():
+                assert _blas_threads() == [1] * len(before)
+        assert _blas_threads() == before
+
+
+@pytest.mark.skipif(not _parallel.blas_controllable(), reason="no BLAS threadpoolctl can control")
+def test_single_threaded_blas_works_from_any_thread():
+    # OpenBLAS's thread count is process-wide. The block limits it from a thread other than the
+    # one holding a threadpoolctl limit, and a thread leaving its block does not restore the
+    # count while another thread is still inside one.
+    entered, left = threading.Event(), threading.Event()
+    seen: list[list[int]] = []
+
+    def alone() -> None:
+        with _parallel.single_threaded_blas():
+            seen.append(_blas_threads())
+
+    def overlapping() -> None:
+        with _parallel.single_threaded_blas():
+            entered.set()
+            left.wait(5)
+            seen.append(_blas_threads())
+
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = _two_blas_threads()
+        one = [1] * len(before)
+        worker = threading.Thread(target=alone)
+        worker.start()
+        worker.join(5)
+        assert seen == [one] and _blas_threads() == before
+        worker = threading.Thread(target=overlapping)
+        with _parallel.single_threaded_blas():
+            worker.start()
+            entered.wait(5)
+        left.set()  # the main thread has left; the other is still inside
+        worker.join(5)
+        assert seen == [one, one]
+        assert _blas_threads() == before
 
 
 def test_ordered_map_keeps_the_order_and_raises_errors():

@@ -67,8 +67,8 @@ class LeaderboardRun:
     tracks: Path | None = None
     """folder of track files (default: tracks/ of the checkout)"""
     cache: Path | None = None
-    """render cache folder (default: $SFA_GYM_CACHE or ~/.cache/sfa-gym/runs); on a cluster,
-    a folder every node sees"""
+    """render cache folder (default: $SFA_GYM_CACHE, else ~/.cache/sfa-gym/runs on Linux or
+    $XDG_CACHE_HOME/sfa-gym/runs where that is set); on a cluster, a folder every node sees"""
     time_limits: tuple[str, ...] = ()
     """wall-clock limits of the calls into the plug-ins, NAME=SECONDS (e.g. fit=3600
     transform=600; names: load, fit, transform, reset, act), over the tracks' time_limits, over
@@ -202,14 +202,18 @@ class LeaderboardTable:
     reference: bool = True
     """show the committed reference results beside yours"""
     markdown: bool = False
-    """print the markdown table only (for README.md and docs/), write no files"""
+    """print the markdown table only (for README.md and docs/), write no files (but --csv)"""
+    csv: Path | None = None
+    """also write the table to this CSV file: a line per cell (method, source, column, track,
+    version, quick, mean, ci95_low, ci95_high, n, higher_is_better, marks), the numbers as
+    stored in the results"""
 
     def run(self) -> int:
         import sys
 
         from sfa_gym.leaderboard.checks import check_board
         from sfa_gym.leaderboard.results import REFERENCE, YOURS, reference_folder
-        from sfa_gym.leaderboard.table import load_board, markdown_table, write_board
+        from sfa_gym.leaderboard.table import load_board, markdown_table, write_board, write_csv
 
         reference = reference_folder() if self.reference else None
         skipped: list[str] = []
@@ -234,6 +238,8 @@ class LeaderboardTable:
         else:
             out = self.out if self.out is not None else self.results
             print(write_board(board, out, marks), end="")
+        if self.csv is not None:
+            write_csv(board, self.csv, marks)
         return 0
 
 

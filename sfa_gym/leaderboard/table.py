@@ -1,6 +1,7 @@
 """The leaderboard table: results (:mod:`sfa_gym.leaderboard.results`) arranged as a column per
 track and a row per method and source (yours beside the committed reference), written as
-markdown (LEADERBOARD.md), detail tables and a chart (leaderboard.png).
+markdown (LEADERBOARD.md), detail tables and a chart (leaderboard.png), and as CSV (a line per
+cell, with its numbers unformatted) for analysis elsewhere.
 
 A column holds one experiment: one track at one size, at the version and world seeds of the
 track file in ``tracks/``. A result of another track version (or, at the same version, of other
@@ -10,6 +11,7 @@ averaged or ranked with the current version's; :attr:`Board.apart` says why.
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 from collections.abc import Mapping
@@ -33,12 +35,14 @@ __all__ = [
     "Row",
     "arrange",
     "column_of",
+    "csv_rows",
     "current_tracks",
     "detail_tables",
     "draw_chart",
     "load_board",
     "markdown_table",
     "write_board",
+    "write_csv",
     "write_table",
 ]
 
@@ -239,6 +243,71 @@ def markdown_table(board: Board, marks: CellMarks | None = None) -> str:
         footnotes += ["", "Columns apart (not comparable with the track's current column):"]
         footnotes += [f"- {column}: {why}" for column, why in sorted(board.apart.items())]
     return "\n".join(lines + footnotes + detail_tables(board)) + "\n"
+
+
+CSV_FIELDS = (
+    "method",
+    "source",
+    "column",
+    "track",
+    "track_version",
+    "quick",
+    "mean",
+    "ci95_low",
+    "ci95_high",
+    "n",
+    "higher_is_better",
+    "marks",
+)
+"""The columns of the CSV table (:func:`csv_rows`)."""
+
+
+def csv_rows(board: Board, marks: CellMarks | None = None) -> list[dict[str, Any]]:
+    """The cells of :func:`markdown_table` as CSV lines, in its order (row by row, then column
+    by column; no line for an empty cell): the row's method and source, the table's column
+    (``"<track> (quick)"``, or a column apart), the result's track, version and size, the mean
+    and the ends of its 95 % interval as stored (empty when there is none: fewer than three
+    seeds), the number of seeds, the score's direction and the cell's marks (``†``, ``‡``)."""
+    lines = []
+    for row in board.rows:
+        for column in board.tracks:
+            result = board.cells[column].get(row)
+            if result is None:
+                continue
+            score = result["score"]
+            low, high = score["ci95"] if score.get("ci95") else ("", "")
+            lines.append(
+                {
+                    "method": row[0],
+                    "source": row[1],
+                    "column": column,
+                    "track": result["track"]["name"],
+                    "track_version": result["track"]["track_version"],
+                    "quick": result["track"]["quick"],
+                    "mean": score["mean"],
+                    "ci95_low": low,
+                    "ci95_high": high,
+                    "n": score["n"],
+                    "higher_is_better": score["higher_is_better"],
+                    "marks": marks.mark(column, row) if marks else "",
+                }
+            )
+    return lines
+
+
+def write_csv(
+    board: Board, path: str | os.PathLike[str], marks: CellMarks | None = None
+) -> list[dict[str, Any]]:
+    """Write :func:`csv_rows` of ``board`` to ``path`` (a header line, then a line per cell;
+    UTF-8, for the marks); returns the rows."""
+    rows = csv_rows(board, marks)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="", encoding="utf-8") as file:
+        writer = csv.DictWriter(file, fieldnames=CSV_FIELDS)
+        writer.writeheader()
+        writer.writerows(rows)
+    return rows
 
 
 def detail_tables(board: Board) -> list[str]:

@@ -12,6 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from numpy.typing import ArrayLike, NDArray  # noqa: E402
+from scipy import ndimage  # noqa: E402
 
 __all__ = ["cost_landscape", "paths"]
 
@@ -102,15 +103,14 @@ def cost_landscape(
 
 
 def _local_minima(grid: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """Row and column indices of cells lower than all 8 neighbours (NaN counts as high)."""
-    padded = np.pad(np.nan_to_num(grid, nan=np.inf), 1, constant_values=np.inf)
-    centre = padded[1:-1, 1:-1]
-    lower = np.isfinite(centre)
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            if dy or dx:
-                shifted = padded[
-                    1 + dy : padded.shape[0] - 1 + dy, 1 + dx : padded.shape[1] - 1 + dx
-                ]
-                lower &= centre < shifted
-    return np.nonzero(lower)
+    """Row and column indices of cells lower than all 8 neighbours (NaN counts as high).
+
+    Strictly lower: the filter's footprint leaves the centre out, so a plateau of equal cells
+    marks none of them; cells off the grid count as high (``cval=inf``), so a border cell is a
+    minimum when it is lower than the neighbours it has.
+    """
+    ring = np.ones((3, 3), dtype=bool)
+    ring[1, 1] = False
+    cells = np.nan_to_num(grid, nan=np.inf)
+    lowest_neighbour = ndimage.minimum_filter(cells, footprint=ring, mode="constant", cval=np.inf)
+    return np.nonzero(np.isfinite(cells) & (cells < lowest_neighbour))

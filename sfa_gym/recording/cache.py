@@ -45,6 +45,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import platformdirs
+
 __all__ = [
     "RENDERING_VERSION",
     "RunCache",
@@ -71,11 +73,13 @@ _CHECKED: set[str] = set()
 
 
 def default_cache_dir() -> Path:
-    """``$SFA_GYM_CACHE`` if set, else ``~/.cache/sfa-gym/runs``."""
+    """``$SFA_GYM_CACHE`` if set, else ``runs`` in the user's cache folder for ``sfa-gym``:
+    ``~/.cache/sfa-gym/runs`` on Linux (``$XDG_CACHE_HOME/sfa-gym/runs`` where that is set, e.g.
+    on a cluster whose home quota is small), ``~/Library/Caches/sfa-gym/runs`` on macOS."""
     override = os.environ.get(ENV_VARIABLE)
     if override:
         return Path(override)
-    return Path.home() / ".cache" / "sfa-gym" / "runs"
+    return platformdirs.user_cache_path("sfa-gym", appauthor=False) / "runs"
 
 
 def rendering_code_sha256(root: str | os.PathLike[str] | None = None) -> str:
@@ -271,6 +275,16 @@ class RunRequest:
 
 @contextlib.contextmanager
 def _locked(path: Path) -> Iterator[None]:
+    """Hold an exclusive ``flock`` on ``path`` (created if missing) inside the block.
+
+    By hand rather than with filelock: ``flock`` on a fresh open file excludes other processes
+    and other threads alike, the kernel drops it when a render is killed, and the lock file is
+    never deleted (deleting it would let two processes lock two different files). filelock
+    gives the same on Linux through many more layers (reentrant, per-thread and singleton
+    locks, leases, whose defaults have changed between its major versions) and is no
+    dependency of sfa-gym's core; its one gain, Windows, is no platform the renderer is set up
+    for (EGL or OSMesa, :mod:`sfa_gym.sim.gl`).
+    """
     with open(path, "a+b") as file:
         fcntl.flock(file.fileno(), fcntl.LOCK_EX)
         try:

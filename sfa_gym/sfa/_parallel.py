@@ -10,17 +10,15 @@ of data go to a small thread pool (numpy releases the GIL in BLAS calls and arra
 their results are combined in chunk order, so the numbers do not depend on the number of
 threads or on scheduling.
 
-BLAS control uses the OpenBLAS libraries already loaded in the process (numpy's and scipy's
-wheels each bundle one) through their ``*_set_num_threads`` entry points; the previous setting
-is restored on exit. Where no OpenBLAS is found (another BLAS), BLAS is left alone and the
-engine runs its chunks one at a time, so that BLAS threads and pool threads never compete.
+BLAS control goes through threadpoolctl, which finds every BLAS library loaded in the process
+(numpy's and scipy's wheels each bundle an OpenBLAS) and sets its thread count; the previous
+setting is restored on exit. Where threadpoolctl finds no BLAS it can control, BLAS is left alone
+and the engine runs its chunks one at a time, so that BLAS threads and pool threads never compete.
 """
 
 from __future__ import annotations
 
-import ctypes
 import functools
-import glob
 import os
 import threading
 from collections import deque
@@ -28,6 +26,8 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Any, TypeVar
+
+from threadpoolctl import OpenBLASController, ThreadpoolController
 
 __all__ = [
     "blas_controllable",
@@ -40,73 +40,25 @@ __all__ = [
 T = TypeVar("T")
 R = TypeVar("R")
 
-_SETTERS = (
-    "scipy_openblas_set_num_threads64_",
-    "scipy_openblas_set_num_threads",
-    "openblas_set_num_threads64_",
-    "openblas_set_num_threads",
-)
-_GETTERS = (
-    "scipy_openblas_get_num_threads64_",
-    "scipy_openblas_get_num_threads",
-    "openblas_get_num_threads64_",
-    "openblas_get_num_threads",
-)
-
-_CORENAMES = (
-    "scipy_openblas_get_corename64_",
-    "scipy_openblas_get_corename",
-    "openblas_get_corename64_",
-    "openblas_get_corename",
-)
-
+# The engine's scope is counted here, not by nesting threadpoolctl's limiters: it is entered from
+# several threads at once (pool threads fit nodes while the caller holds the limit), and the
+# thread that leaves last, which restores the counts, need not be the one that limited them.
 _lock = threading.Lock()
 _depth = 0
-_saved: list[tuple[Any, Any, int]] = []
-_handles: list[tuple[Any, Any]] | None = None
+_limiter: Any = None
 
 
-def _loaded_openblas_paths() -> list[str]:
-    """Paths of the OpenBLAS shared libraries mapped into this process."""
-    paths: set[str] = set()
-    try:
-        with open("/proc/self/maps", encoding="utf-8", errors="replace") as fh:
-            for line in fh:
-                path = line.split()[-1] if line.strip() else ""
-                if "openblas" in os.path.basename(path).lower():
-                    paths.add(path)
-    except OSError:  # no procfs (macOS): look next to the numpy and scipy packages
-        import numpy
-        import scipy
+@functools.cache
+def _blas() -> ThreadpoolController:
+    """The BLAS libraries loaded in this process, as a threadpoolctl controller (cached).
 
-        for pkg in (numpy, scipy):
-            base = os.path.dirname(pkg.__file__ or "")
-            for d in (base + ".libs", os.path.join(base, ".dylibs")):
-                paths.update(glob.glob(os.path.join(d, "*openblas*")))
-    return sorted(paths)
+    Those loaded at the first call: numpy's and scipy's, the engine's. A BLAS another package
+    loads later (the engine never calls it) is left alone; scanning again at every limit would
+    cost ~1.5 ms, more than a navigation step's features.
+    """
+    import scipy.linalg  # noqa: F401  (make sure scipy's own BLAS is loaded before scanning)
 
-
-def _openblas_handles() -> list[tuple[Any, Any]]:
-    """``(get, set)`` thread-count functions of every loaded OpenBLAS (cached)."""
-    global _handles
-    if _handles is None:
-        import scipy.linalg  # noqa: F401  (make sure scipy's own BLAS is loaded before scanning)
-
-        found = []
-        for path in _loaded_openblas_paths():
-            try:
-                lib = ctypes.CDLL(path)
-            except OSError:
-                continue
-            setter = next((getattr(lib, n) for n in _SETTERS if hasattr(lib, n)), None)
-            getter = next((getattr(lib, n) for n in _GETTERS if hasattr(lib, n)), None)
-            if setter is None or getter is None:
-                continue
-            setter.argtypes, setter.restype = [ctypes.c_int], None
-            getter.argtypes, getter.restype = [], ctypes.c_int
-            found.append((getter, setter))
-        _handles = found
-    return _handles
+    return ThreadpoolController().select(user_api="blas")
 
 
 @functools.cache
@@ -115,36 +67,45 @@ def blas_corename() -> str | None:
     if numpy does not use OpenBLAS. ``OPENBLAS_CORETYPE`` in the environment forces it."""
     import numpy
 
-    for path in _loaded_openblas_paths():
-        if os.path.dirname(path) != os.path.dirname(numpy.__file__) + ".libs":
-            continue
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for name in _CORENAMES:
-            fn = getattr(lib, name, None)
-            if fn is not None:
-                fn.restype = ctypes.c_char_p
-                return fn().decode()
+    numpy_libs = os.path.dirname(numpy.__file__) + ".libs"
+    for lib in _blas().info():
+        if lib["internal_api"] == "openblas" and os.path.dirname(lib["filepath"]) == numpy_libs:
+            return lib["architecture"]
     return None
 
 
 def blas_controllable() -> bool:
-    """Whether the BLAS thread count can be set (OpenBLAS found in the process)."""
-    return bool(_openblas_handles())
+    """Whether the BLAS thread count can be set (threadpoolctl found a BLAS in the process)."""
+    return bool(_blas().lib_controllers)
+
+
+def _take_openblas_control() -> None:
+    """Let this thread set OpenBLAS's (process-wide) thread count.
+
+    threadpoolctl >= 3.8 lets only one thread at a time change a pthreads OpenBLAS and silently
+    ignores the others; the engine's scope may open and close on different threads, so the
+    thread that opens or closes it takes control (earlier threadpoolctl has no such rule).
+    """
+    clear = getattr(OpenBLASController, "clear_controlling_thread", None)
+    if clear is not None:
+        clear(force=True)
+
+
+def _release_openblas_control() -> None:
+    clear = getattr(OpenBLASController, "clear_controlling_thread", None)
+    if clear is not None:
+        clear()
 
 
 @contextmanager
 def single_threaded_blas() -> Iterator[None]:
     """Run BLAS with one thread inside the block (nestable, restores the previous counts)."""
-    global _depth, _saved
-    handles = _openblas_handles()
+    global _depth, _limiter
     with _lock:
         if _depth == 0:
-            _saved = [(get, put, int(get())) for get, put in handles]
-            for _, put, _n in _saved:
-                put(1)
+            _take_openblas_control()
+            _limiter = _blas().limit(limits=1)
+            _release_openblas_control()
         _depth += 1
     try:
         yield
@@ -152,9 +113,10 @@ def single_threaded_blas() -> Iterator[None]:
         with _lock:
             _depth -= 1
             if _depth == 0:
-                for _, put, n in _saved:
-                    put(n)
-                _saved = []
+                _take_openblas_control()
+                _limiter.restore_original_limits()
+                _release_openblas_control()
+                _limiter = None
 
 
 def available_cpus() -> int:
@@ -180,6 +142,12 @@ def ordered_map(fn: Callable[[T], R], items: Iterable[T], workers: int) -> Itera
     At most ``workers`` calls run at a time (one more may wait in the queue), so the working
     memory is bounded by ``workers`` chunks. With ``workers == 1`` everything runs in the
     calling thread.
+
+    Why not ``ThreadPoolExecutor.map``: before Python 3.14 (its ``buffersize``) it submits every
+    item at once, so finished results pile up while the caller consumes them; the SFA passes
+    return per-chunk moment copies of up to ``_sources.PARTIAL_BYTES`` (256 MB) each and merge
+    them in the calling thread, so an unbounded run-ahead could hold all of them at once. The
+    window below is that ``buffersize`` (``workers + 1``); the executor does the rest.
     """
     items = list(items)
     if workers <= 1 or len(items) <= 1:
