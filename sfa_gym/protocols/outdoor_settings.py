@@ -273,12 +273,7 @@ class Config:
             return {**kwargs, "dynamics": False}
         if condition == "after":
             return {**kwargs, "start_hour": self.start_hour, **self._dated()}
-        offsets = self.offsets()
-        if condition not in offsets:
-            raise ValueError(
-                f"unknown test condition {condition!r}; this config's are {['after', *offsets]}"
-            )
-        kind, offset = offsets[condition]
+        kind, offset = self._condition(condition)
         # the test runs start when the "after" part does: the training run's frames later
         hour = (self.start_hour + (self.train_frames * self.frame_dt) / 3600.0) % 24.0
         if kind == "later":
@@ -289,6 +284,19 @@ class Config:
         change = {"overcast": {"overcast": 1.0}, "other_day": {"day": spec.day + int(offset)}}
         spec = dataclasses.replace(spec, **change[kind])
         return {**kwargs, "start_hour": hour, "dynamics": spec}
+
+    def _condition(self, name: str) -> tuple[Condition, float]:
+        """The kind and offset of the condition ``name``: one of :meth:`offsets`, or any kind
+        whose offset is a single value (its run, scored or not)."""
+        offsets = self.offsets()
+        if name in offsets:
+            return offsets[name]
+        single = {"later": self.later_hours, "other_day": self.other_days}.get(name, 0)
+        if name in CONDITIONS and not isinstance(single, tuple | list):
+            return name, single  # type: ignore[return-value]
+        raise ValueError(
+            f"unknown test condition {name!r}; this config's are {['after', *offsets]}"
+        )
 
     def _dated(self) -> dict[str, Any]:
         """``{"dynamics": ...}`` when a date or day is given, else nothing: the env's own
