@@ -127,3 +127,61 @@ def test_a_track_can_name_the_clock_and_weather():
         track_from_dict(_track(day_of_year=400))
     with pytest.raises(TrackError, match="other_days must be a whole number of days"):
         track_from_dict(_track(other_days=[1, -1]))
+
+
+# short versions of the paper's paths at 16 x 160 pixels (as in test_leaderboard_outdoor.py)
+TINY = {
+    "panorama": [16, 160],
+    "train_frames": 133,
+    "test_frames": 125,
+    "frame_dt": 1.6,
+    "spacing": 2.0,
+    "test_spacing": 2.0,
+    "step": 5,
+    "eval_rotations": 4,
+    "fit_every": 2,
+}
+
+
+def test_a_winter_day_tested_two_and_six_hours_later_through_the_command_line(tmp_path, capsys):
+    from sfa_gym.cli.main import main
+
+    out = tmp_path / "winter"
+    args = ["localize-outdoor", "--out", str(out), "--quiet", "--no-baselines"]
+    for name, value in TINY.items():
+        values = value if isinstance(value, list) else [value]
+        args += [f"--{name.replace('_', '-')}", *map(str, values)]
+    args += ["--day-of-year", "15", "--latitude-deg", "50", "--start-hour", "9"]
+    args += ["--conditions", "after", "later", "--later-hours", "2", "6", "--network", "auto"]
+    args += ["--node-dim", "8"]  # the tiny network (auto at 16 x 160), small
+    assert main(args) == 0
+    table = capsys.readouterr().out
+    assert "later+2h x/y %" in table and "later+6h x/y %" in table
+    results = json.loads((out / "results.json").read_text())
+    assert list(results["runs"]) == ["train", "after", "later+2h", "later+6h"]
+    start = 9.0 + 133 * 1.6 / 3600.0
+    for name, hours in (("later+2h", 2), ("later+6h", 6)):
+        assert results["runs"][name]["run_start_hour"] == pytest.approx(start + hours)
+        assert (out / f"test_{name}.run").is_dir()
+    linear = results["methods"]["hierarchical_sfa"]["linear"]
+    assert list(linear) == ["after", "later+2h", "later+6h"]
+    assert all(math.isfinite(v) for c in linear.values() for v in c["all"]["mae_percent"])
+
+
+def test_a_winter_track_scores_each_later_offset(tmp_path):
+    from sfa_gym.leaderboard.results import load_results
+    from sfa_gym.leaderboard.sweep import run_sweep
+    from sfa_gym.leaderboard.tracks import load_track
+
+    data = _track(**TINY, conditions=["later"], later_hours=[2, 6], day_of_year=15, latitude_deg=50)
+    data.update(world_seeds=[300], quick={"world_seeds": 1})
+    (tmp_path / "outdoor_winter.json").write_text(json.dumps(data))
+    track = load_track(tmp_path / "outdoor_winter.json")
+    band_means = ROOT / "baselines" / "band_means.py"
+    run_sweep([track], [(band_means, {})], tmp_path / "results", cache_dir=tmp_path / "cache")
+    (result,) = load_results(tmp_path / "results")
+    scores = result["tasks"][0]["scores"]
+    assert list(scores["renders"]) == ["drive", "later+2h", "later+6h"]
+    parts = scores["parts"]
+    assert scores["score"] == pytest.approx((parts["later+2h"] + parts["later+6h"]) / 2)
+    assert parts["later+2h"] != parts["later+6h"]  # two runs at two hours of a winter day
