@@ -11,6 +11,7 @@ import re
 from pathlib import Path
 
 import pytest
+from test_leaderboard_outdoor import TINY_PARAMS
 
 from sfa_gym.experiments import OutdoorExperiment
 from sfa_gym.leaderboard.tracks import TrackError, track_from_dict
@@ -129,18 +130,9 @@ def test_a_track_can_name_the_clock_and_weather():
         track_from_dict(_track(other_days=[1, -1]))
 
 
-# short versions of the paper's paths at 16 x 160 pixels (as in test_leaderboard_outdoor.py)
-TINY = {
-    "panorama": [16, 160],
-    "train_frames": 133,
-    "test_frames": 125,
-    "frame_dt": 1.6,
-    "spacing": 2.0,
-    "test_spacing": 2.0,
-    "step": 5,
-    "eval_rotations": 4,
-    "fit_every": 2,
-}
+# the short versions of the paper's paths at 16 x 160 pixels of the tiny outdoor track
+CLOCK = ("start_hour", "later_hours", "conditions")  # what these tests set themselves
+TINY = {k: v for k, v in TINY_PARAMS.items() if k not in CLOCK}
 
 
 def test_a_winter_day_tested_two_and_six_hours_later_through_the_command_line(tmp_path, capsys):
