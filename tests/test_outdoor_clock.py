@@ -100,6 +100,7 @@ def test_the_date_place_and_day_reach_every_run():
         ({"later_hours": (2.0, 6.0)}, r"later_hours=\(2.0, 6.0\) gives the offsets of the 'later'"),
         ({"conditions": ("later",), "later_hours": ()}, "later_hours must be a number or a non"),
         ({"conditions": ("later",), "later_hours": (2.0, 2.0)}, r"later_hours \[2.0, 2.0\] rep"),
+        ({"conditions": ("later",), "later_hours": (2.0, 2.0000001)}, "repeats an offset"),
         ({"conditions": ("later",), "later_hours": (2.0, math.inf)}, "later_hours must be a fin"),
         ({"conditions": ("other_day",), "other_days": (1, 0)}, "other_days must be a whole num"),
         ({"conditions": ("other_day",), "other_days": 1.5}, "got 1.5"),

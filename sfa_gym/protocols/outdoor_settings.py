@@ -183,17 +183,8 @@ class Config:
             ("later_hours", self.later_hours, "later"),
             ("other_days", self.other_days, "other_day"),
         ):
-            if isinstance(offsets, tuple | list):
-                if not offsets:
-                    raise ValueError(f"{name} must be a number or a non-empty tuple, got ()")
-                if len(set(offsets)) != len(offsets):
-                    raise ValueError(f"{name} {list(offsets)} repeats an offset")
-                if condition not in self.conditions:
-                    raise ValueError(
-                        f"{name}={tuple(offsets)!r} gives the offsets of the {condition!r} "
-                        f"condition: add {condition} to conditions"
-                    )
-            for value in offsets if isinstance(offsets, tuple | list) else (offsets,):
+            several = isinstance(offsets, tuple | list)
+            for value in offsets if several else (offsets,):
                 if name == "later_hours" and (not is_number(value) or not math.isfinite(value)):
                     raise ValueError(
                         f"later_hours must be a finite number of hours or a tuple of them, got "
@@ -206,6 +197,18 @@ class Config:
                         f"other_days must be a whole number of days >= 1 or a tuple of them, "
                         f"got {value!r}"
                     )
+            if not several:
+                continue
+            if not offsets:
+                raise ValueError(f"{name} must be a number or a non-empty tuple, got ()")
+            names = _named(condition, offsets, _SUFFIX[condition])
+            if len(set(offsets)) != len(offsets) or len(names) != len(offsets):
+                raise ValueError(f"{name} {list(offsets)} repeats an offset (or its name)")
+            if condition not in self.conditions:
+                raise ValueError(
+                    f"{name}={tuple(offsets)!r} gives the offsets of the {condition!r} "
+                    f"condition: add {condition} to conditions"
+                )
 
     def offsets(self) -> dict[str, tuple[Condition, float]]:
         """Each test condition, by name, with its kind and its offset (hours after the
@@ -215,9 +218,9 @@ class Config:
         out: dict[str, tuple[Condition, float]] = {}
         for condition in self.conditions:
             if condition == "later":
-                out.update(_named("later", self.later_hours, "{:+g}h"))
+                out.update(_named("later", self.later_hours, _SUFFIX["later"]))
             elif condition == "other_day":
-                out.update(_named("other_day", self.other_days, "{:+d}"))
+                out.update(_named("other_day", self.other_days, _SUFFIX["other_day"]))
             else:
                 out[condition] = (condition, 0)
         return out
@@ -303,6 +306,10 @@ class Config:
         dynamics (the runs of before, under the same cache keys)."""
         dated = any(getattr(self, n) is not None for n in ("day_of_year", "latitude_deg", "day"))
         return {"dynamics": self.world_dynamics()} if dated else {}
+
+
+_SUFFIX = {"later": "{:+g}h", "other_day": "{:+d}"}
+"""How a condition of several offsets names each: ``later+2h``, ``other_day+2``."""
 
 
 def _named(
