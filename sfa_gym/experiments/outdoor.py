@@ -2,7 +2,8 @@
 hierarchical SFA and the plug-in feature methods, with its output folder, results and figures.
 
 The runs are recorded into the output folder (``drive.run``, ``test_<condition>.run``,
-``train_<hours>h.run``) and reused or resumed by the next call. Hierarchical SFA comes first,
+``train_<hours>h.run``; ``test_later+2h.run`` and so on for several offsets) and reused or
+resumed by the next call. Hierarchical SFA comes first,
 with the paper's linear regression, a quadratic one and the map decoder, and its linear
 regression is also scored on every rotation window (what the fewer windows cost); each plug-in
 with its regressions. Scoring is the protocol's :func:`~sfa_gym.protocols.outdoor.score_on`.
@@ -126,7 +127,7 @@ def run_outdoor_experiment(
             "after": _run_summary(drive, slice(n, None)),
             **{
                 c: _run_summary(data.runs[c], slice(None))
-                for c in config.conditions
+                for c in config.test_conditions
                 if c != "after"
             },
         },

@@ -8,8 +8,11 @@ movers, auto-exposure and pixel noise, the camera on a sprung mast): one drive o
 south-west, then, without stopping the clock, ``test_frames`` that cross it
 (:class:`~sfa_gym.recording.outdoor_path.OutdoorPathDriver`, ``part="both"``). Appearance
 tracks (``conditions``) record the test path again under one change each, holding the others:
-``later`` (``later_hours`` later), ``overcast``, ``no_movers``, ``other_day``; ``after`` (the
-drive's test part, the paper's protocol) is always scored.
+``later`` (``later_hours`` later), ``overcast``, ``no_movers``, ``other_day`` (``other_days``
+later: other clouds and mover schedules); ``after`` (the drive's test part, the paper's
+protocol) is always scored. Several ``later_hours`` or ``other_days`` give one condition each;
+the sun can be dated (``day_of_year``, ``latitude_deg``) and the day chosen (``day``): the
+settings and the env of each run are in :mod:`sfa_gym.protocols.outdoor_settings`.
 
 Fitting (:func:`fit_outdoor`): a method with ``fit_rotations`` (hierarchical SFA) on every
 simulated rotation of every training frame in time order; a column statistic
@@ -22,26 +25,26 @@ run's coordinate range, over all test frames, in the unvisited region and in the
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal, get_args
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym._checks import check_int, check_positive_int, is_number
-from sfa_gym.localization.appearance import Normalisation, normalise_panoramas
+from sfa_gym.localization.appearance import normalise_panoramas
 from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod, get_capabilities
 from sfa_gym.protocols.features import fit_method, full_width, invariance_entry, view_features
-from sfa_gym.protocols.settings import check_choice
-from sfa_gym.rotation import Rotation, check_step, spread_indices
+
+# the settings live in their own module; their public names are re-exported here
+from sfa_gym.protocols.outdoor_settings import CONDITIONS, ENV_ID, Condition, Config
+from sfa_gym.rotation import spread_indices
 
 __all__ = [
     "CONDITIONS",
     "ENV_ID",
+    "Condition",
     "Config",
     "OutdoorData",
     "Scores",
@@ -54,172 +57,6 @@ __all__ = [
     "score_on",
 ]
 
-ENV_ID = "sfa_gym/OmniRoverOutdoor-v0"
-"""The env every outdoor run is rendered in."""
-Condition = Literal["after", "later", "overcast", "no_movers", "other_day"]
-CONDITIONS: tuple[str, ...] = get_args(Condition)
-"""The test conditions (see the module docstring)."""
-Camera = Literal["mirror", "cylindrical"]
-
-
-@dataclass(frozen=True)
-class Config:
-    """Settings of the outdoor protocol (defaults: the paper's)."""
-
-    panorama: tuple[int, int] | None = None
-    """(height, width) of the panoramas in pixels (quick runs); None: the paper's 60 x 600"""
-    train_frames: int = 5900
-    """frames of the training run (the paper: 5900)"""
-    test_frames: int = 2800
-    """frames of the test run (the paper: 2800)"""
-    frame_dt: float = 0.1
-    """seconds between frames (the env's control period); longer periods give short test
-    runs over the same paths"""
-    spacing: float = 0.5
-    """training run: distance between the grid's lanes, m (larger for short runs)"""
-    test_spacing: float = 1.0
-    """test run: distance between the grid's lanes, m"""
-    start_hour: float = 10.0
-    """time of day at which the training run starts, hours"""
-    conditions: tuple[Condition, ...] = ("after",)
-    """test conditions scored (appearance tracks): after, later, overcast, no_movers,
-    other_day; "after" is scored always, a track's score is the mean over these"""
-    later_hours: float = 4.0
-    """the "later" test run starts this many hours after the "after" one"""
-    dynamics: bool = True
-    """the world's dynamics (sun, clouds, movers); False: a static world (ablation)"""
-    sensor: bool = True
-    """the camera's auto-exposure and pixel noise"""
-    vibration: bool = True
-    """the sprung camera mast (False: a rigid one)"""
-    camera: Camera = "mirror"
-    """the mirror camera (unwarped) or the ideal cylindrical one"""
-    step: int = 5
-    """simulated rotation step, columns (must divide the panorama width)"""
-    eval_rotations: int | None = 12
-    """evenly spread rotation windows per frame (12: every 30 degrees) whose features every
-    regression is fitted on and averages over; None: all (120 at 600 px: slow for plug-ins
-    that transform every view; SFA's estimate over all 120 is reported beside)"""
-    normalise: Normalisation = "none"
-    """input normalisation of every panorama, for every method (sfa_gym.localization.appearance:
-    none, grey_world, log_gradient)"""
-    train_also: tuple[float, ...] = ()
-    """levers: the training path driven again, starting this many hours after start_hour, each
-    such run interleaved frame by frame with the training run (the appearance of a place then
-    changes faster than the place); every method trains on all of them"""
-    fit_every: int = 5
-    """plug-ins without a rotation shortcut are fitted on every n-th training frame"""
-    seed: int = 0
-    """seed of the env resets (sensor noise) and of the path planner"""
-
-    @property
-    def rotation(self) -> Rotation:
-        """The simulated rotation every method is trained and evaluated on."""
-        return Rotation(step=self.step)
-
-    def validate(self) -> None:
-        """Raise ValueError (or TypeError) naming the first bad setting."""
-        check_int("seed", self.seed)
-        for name in ("train_frames", "test_frames"):
-            if check_positive_int(name, getattr(self, name)) < 10:
-                raise ValueError(f"{name} must be >= 10, got {getattr(self, name)!r}")
-        for name in ("step", "fit_every"):
-            check_positive_int(name, getattr(self, name))
-        if self.eval_rotations is not None:
-            check_positive_int("eval_rotations", self.eval_rotations)
-        for name, unit in (
-            ("frame_dt", "seconds"),
-            ("spacing", "metres"),
-            ("test_spacing", "metres"),
-        ):
-            value = getattr(self, name)
-            if not is_number(value) or not math.isfinite(value) or value <= 0:
-                raise ValueError(f"{name} must be a positive number of {unit}, got {value!r}")
-        for name in ("start_hour", "later_hours"):
-            value = getattr(self, name)
-            if not is_number(value) or not math.isfinite(value):
-                raise ValueError(f"{name} must be a finite number of hours, got {value!r}")
-        if not 0.0 <= self.start_hour < 24.0:
-            raise ValueError(f"start_hour must lie in [0, 24) hours, got {self.start_hour!r}")
-        if not isinstance(self.conditions, tuple | list) or not self.conditions:
-            raise ValueError(f"conditions must be a non-empty tuple, got {self.conditions!r}")
-        for condition in self.conditions:
-            check_choice("conditions", condition, Condition)
-        if len(set(self.conditions)) != len(self.conditions):
-            raise ValueError(f"conditions {list(self.conditions)} repeats a condition")
-        if not self.dynamics and set(self.conditions) - {"after"}:
-            raise ValueError(
-                f"conditions {sorted(set(self.conditions) - {'after'})} change the dynamics; "
-                "they need dynamics=True"
-            )
-        for name in ("dynamics", "sensor", "vibration"):
-            if not isinstance(getattr(self, name), bool):
-                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
-        check_choice("camera", self.camera, Camera)
-        check_choice("normalise", self.normalise, Normalisation)
-        if not isinstance(self.train_also, tuple | list) or not all(
-            is_number(h) and math.isfinite(h) and h != 0 for h in self.train_also
-        ):
-            raise ValueError(
-                f"train_also must be a tuple of non-zero hours, got {self.train_also!r}"
-            )
-        if self.train_also and not self.dynamics:
-            raise ValueError("train_also drives at other times of day: it needs dynamics=True")
-        if self.panorama is not None:
-            if not isinstance(self.panorama, tuple | list) or len(self.panorama) != 2:
-                raise ValueError(
-                    f"panorama must be None or (height, width) in pixels, got {self.panorama!r}"
-                )
-            for value in self.panorama:
-                check_positive_int("panorama", value)
-        check_step(600 if self.panorama is None else self.panorama[1], self.step)
-
-    def driver(self, part: Literal["train", "test", "both"]) -> Any:
-        """The driver of the whole drive (``"both"``) or of one of its paths."""
-        from sfa_gym.recording.outdoor_path import OutdoorPathDriver
-
-        return OutdoorPathDriver(
-            part,
-            train_frames=self.train_frames,
-            test_frames=self.test_frames,
-            spacing=self.spacing,
-            test_spacing=self.test_spacing,
-        )
-
-    def env_kwargs(self, condition: Condition, world_seed: int) -> dict[str, Any]:
-        """Keyword arguments of ``gym.make(ENV_ID)`` for the drive (``"after"``: the whole
-        drive, starting at ``start_hour``) or for the test run under ``condition``."""
-        kwargs: dict[str, Any] = {
-            "world_seed": world_seed,
-            "control_dt": self.frame_dt,
-            "camera": self.camera,
-            "sensor": self.sensor,
-            "rover": "outdoor" if self.vibration else "default",
-        }
-        if self.camera == "cylindrical":
-            kwargs["mirror"] = None
-        if self.panorama is not None:
-            from sfa_gym.sim.camera import PanoramaSpec
-
-            height, width = self.panorama
-            kwargs["panorama"] = PanoramaSpec(width=int(width), height=int(height))
-        if not self.dynamics:
-            return {**kwargs, "dynamics": False}
-        if condition == "after":
-            return {**kwargs, "start_hour": self.start_hour}
-        # the test runs start when the "after" part does: the training run's frames later
-        hour = (self.start_hour + (self.train_frames * self.frame_dt) / 3600.0) % 24.0
-        if condition == "later":
-            return {**kwargs, "start_hour": (hour + self.later_hours) % 24.0}
-        if condition == "no_movers":
-            return {**kwargs, "start_hour": hour, "movers": False}
-        from sfa_gym.sim.worlds import load_world_spec
-
-        declared = load_world_spec("paper_outdoor").dynamics
-        change = {"overcast": {"overcast": 1.0}, "other_day": {"day": declared.day + 1}}
-        spec = dataclasses.replace(declared, **change[condition])
-        return {**kwargs, "start_hour": hour, "dynamics": spec}
-
 
 def _request(env_kwargs: dict[str, Any], driver: Any, seed: int) -> Any:
     import gymnasium as gym
@@ -230,6 +67,10 @@ def _request(env_kwargs: dict[str, Any], driver: Any, seed: int) -> Any:
     # world seed and panorama are fields of the request (the cache passes them on)
     world_seed = kwargs.pop("world_seed")
     panorama = kwargs.pop("panorama", None) or env_defaults(ENV_ID)["panorama"]
+    if isinstance(panorama, str):  # the env's own camera, by its preset's name
+        from sfa_gym.sim.camera import PanoramaSpec
+
+        panorama = getattr(PanoramaSpec, panorama)()
     return RunRequest(
         world=gym.spec(ENV_ID).kwargs["world"],
         world_seed=world_seed,
@@ -243,10 +84,11 @@ def _request(env_kwargs: dict[str, Any], driver: Any, seed: int) -> Any:
 
 def requests(config: Config, world_seed: int) -> dict[str, Any]:
     """The runs of one world seed, by name: ``"drive"`` (training and ``after`` frames), one
-    per other condition, and ``"train_<hours>h"`` per hour of ``train_also``."""
+    per other test condition (:attr:`Config.test_conditions`), and ``"train_<hours>h"`` per
+    hour of ``train_also``."""
     drive = config.env_kwargs("after", world_seed)
     out = {"drive": _request(drive, config.driver("both"), config.seed)}
-    for condition in config.conditions:
+    for condition in config.test_conditions:
         if condition != "after":
             kwargs = config.env_kwargs(condition, world_seed)
             out[condition] = _request(kwargs, config.driver("test"), config.seed)
@@ -320,7 +162,7 @@ def load_data(config: Config, world_seed: int, runs: Any) -> OutdoorData:
         )
     region = tuple(south_west(drive.metadata["arena_bounds"]))
     tests = {}
-    for condition in dict.fromkeys(("after", *config.conditions)):
+    for condition in dict.fromkeys(("after", *config.test_conditions)):
         run = got.get(condition)
         if run is None:
             panoramas, poses, time = drive.panoramas[n:], drive.poses[n:], drive.time[n:]
@@ -481,7 +323,7 @@ def score_on(
         invariance=invariance_entry(f_train),
         data=data,
         all_windows=whole,
-        conditions=tuple(config.conditions),
+        conditions=config.test_conditions,
     )
 
 

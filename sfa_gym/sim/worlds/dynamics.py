@@ -10,8 +10,12 @@ the same scene.
 * **Sun** (the model's light named ``"sun"``): it rises in the east (+x) at ``sunrise_hour``,
   stands in the south (-y) at noon at ``noon_elevation_deg`` and sets in the west at
   ``sunset_hour``; its elevation follows a sine arc. Its intensity grows with the sine of the
-  elevation and its colour warms towards the horizon. The ambient (sky) light and the fill
-  lights named ``"sky*"`` follow the sun's height, more weakly.
+  elevation and its colour warms towards the horizon. With a ``day_of_year`` (and
+  ``latitude_deg``), the sun follows the standard solar-position formulas of that date and
+  place instead (:mod:`sfa_gym.sim.worlds.sun`: a low winter sun, a long summer day); the
+  clock is then local solar time, and sunrise, sunset and the noon elevation follow. The
+  ambient (sky) light and the fill lights named ``"sky*"`` follow the sun's height, more
+  weakly, either way.
 * **Clouds**: the direct light is multiplied by a slowly varying factor in
   ``[1 - cloud_depth, 1]`` (a sum of three sinusoids with periods drawn from
   ``cloud_period_s``); what clouds take from the sun partly comes back as diffuse sky light.
@@ -50,12 +54,19 @@ from sfa_gym.sim.worlds.movers import (
     movers_mjcf,
     seeded_rng,
 )
+from sfa_gym.sim.worlds.sun import (
+    check_day_of_year,
+    check_latitude,
+    daylight_hours,
+    sun_position,
+)
 
 __all__ = [
     "FOOTPRINT",
     "MOVER_KINDS",
     "SIDES",
     "Dynamics",
+    "DEFAULT_LATITUDE_DEG",
     "DynamicsSpec",
     "Lanes",
     "MoverSpec",
@@ -68,6 +79,10 @@ __all__ = [
 
 _DAY_S = 86400.0
 
+DEFAULT_LATITUDE_DEG = 50.0
+"""The latitude of a dated sun when none is given: about that of central Germany, where the
+paper's outdoor runs were recorded."""
+
 
 @dataclass(frozen=True)
 class DynamicsSpec:
@@ -77,8 +92,14 @@ class DynamicsSpec:
         start_hour: time of day at which the env's clock starts.
         time_scale: simulated seconds of the clock per second of the rover's time (1: real);
             it hurries the whole world, the movers too.
-        sunrise_hour, sunset_hour: the sun's day.
-        noon_elevation_deg: the sun's elevation at noon.
+        sunrise_hour, sunset_hour: the sun's day (the sine arc; not read with a
+            ``day_of_year``).
+        noon_elevation_deg: the sun's elevation at noon (the sine arc; not read with a
+            ``day_of_year``).
+        day_of_year: the date (1..366); given, the sun's path is that of this date at
+            ``latitude_deg`` (:mod:`sfa_gym.sim.worlds.sun`); None: the sine arc.
+        latitude_deg: the place's latitude, degrees north (negative: south); only with a
+            ``day_of_year``; None there: :data:`DEFAULT_LATITUDE_DEG`.
         sun_diffuse: the sun's diffuse intensity when it stands highest, clear sky.
         ambient: ``[night, noon]`` ambient (sky) light.
         cloud_depth: clouds take up to this fraction of the direct light.
@@ -108,6 +129,8 @@ class DynamicsSpec:
     movers: bool = True
     mover_kinds: tuple[MoverSpec, ...] = field(default_factory=default_movers)
     road: RoadSpec = RoadSpec()
+    day_of_year: int | None = None
+    latitude_deg: float | None = None
 
     def __post_init__(self) -> None:
         check_value(
@@ -148,6 +171,27 @@ class DynamicsSpec:
         for name in ("clock", "clouds", "movers"):
             value = getattr(self, name)
             check_value(isinstance(value, bool), f"{name} must be True or False, got {value!r}")
+        if self.day_of_year is not None:
+            check_day_of_year(self.day_of_year)
+        if self.latitude_deg is not None:
+            check_latitude(self.latitude_deg)
+            check_value(
+                self.day_of_year is not None,
+                f"latitude_deg={self.latitude_deg!r} places the sun by date: give a day_of_year "
+                "(1..366) too, or leave latitude_deg out for the sine arc",
+            )
+
+    @property
+    def latitude(self) -> float:
+        """The latitude the sun is placed at, degrees north (with a ``day_of_year``)."""
+        return DEFAULT_LATITUDE_DEG if self.latitude_deg is None else float(self.latitude_deg)
+
+    @property
+    def daylight(self) -> tuple[float, float]:
+        """Sunrise and sunset, hours: the spec's own, or those of its date and place."""
+        if self.day_of_year is None:
+            return self.sunrise_hour, self.sunset_hour
+        return daylight_hours(self.day_of_year, self.latitude)
 
     @property
     def n_movers(self) -> int:
@@ -229,6 +273,8 @@ class Dynamics:
         day ``t`` (s); the elevation is negative at night."""
         spec = self.spec
         hour = (t % _DAY_S) / 3600.0
+        if spec.day_of_year is not None:  # the date's sun; else the sine arc, as before dates
+            return sun_position(spec.day_of_year, spec.latitude, hour)
         day_len = spec.sunset_hour - spec.sunrise_hour
         f = (hour - spec.sunrise_hour) / day_len  # 0 at sunrise, 1 at sunset
         elevation = math.radians(spec.noon_elevation_deg) * math.sin(math.pi * f)
