@@ -149,5 +149,5 @@ def test_training_runs_interleave_frame_by_frame():
     assert got.shape == (9, 2)
 
 
-def test_sfa_settings_default_to_the_outdoor_network():
-    assert OutdoorExperiment().sfa == SFASettings(network="paper_outdoor")
+def test_sfa_settings_default_to_the_network_of_the_panorama_size():
+    assert OutdoorExperiment().sfa == SFASettings(network="auto")

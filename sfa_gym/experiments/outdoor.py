@@ -38,8 +38,9 @@ class OutdoorExperiment(protocol.Config):
 
     world_seed: int = 0
     """seed of the world's procedural variation (scenery, clouds, movers)"""
-    sfa: SFASettings = SFASettings(network="paper_outdoor")
-    """the hierarchical SFA network"""
+    sfa: SFASettings = SFASettings(network="auto")
+    """the hierarchical SFA network (auto: paper_outdoor at the paper's 60 x 600, paper_sim at
+    40 x 350)"""
 
     def validate(self) -> None:
         """Raise ValueError (or TypeError) naming the first bad setting."""
