@@ -264,6 +264,17 @@ def outdoor_cost_table(files: Sequence[dict[str, Any]], options: dict[str, str])
     return "\n".join(lines)
 
 
+def image_statistics_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """The amplitude spectrum's slope and the local contrast's percentiles of each world and
+    camera (``studies/image_statistics.py``)."""
+    lines = _head(["world, camera", "alpha", "local contrast: 10 %", "median", "90 %"])
+    for data in files:
+        for name, view in data["views"].items():
+            p = view["contrast_percentiles"]
+            lines.append(_row([name, f"{view['alpha']:.2f}", p["10"], p["50"], p["90"]]))
+    return "\n".join(lines)
+
+
 _SFA_RUNS = (
     ("views along a smooth path, ours", ("ours",)),
     ("views along a smooth path, MDP", ("mdp",)),

@@ -70,6 +70,7 @@ GENERATORS: dict[str, Generator] = {
     "descent-bound": formatters.descent_bound_table,
     "nav-steps": formatters.nav_steps_table,
     "outdoor-cost": formatters.outdoor_cost_table,
+    "image-statistics": formatters.image_statistics_table,
     "sfa-engine": formatters.sfa_engine_table,
     "leaderboard-timings": formatters.leaderboard_timings_table,
     "equivariance": formatters.equivariance_table,
@@ -79,7 +80,7 @@ GENERATORS: dict[str, Generator] = {
 navigation protocol's ``results.json``), ``board``, ``board-parts`` and ``board-seconds``
 (the leaderboard's reference board), ``nav-sets`` (navigation studies' episode sets),
 ``quick-vs-full`` (the quick board's ranks against the full one's), ``descent-bound``,
-``nav-steps``, ``outdoor-cost``, ``sfa-engine``, ``leaderboard-timings`` and
+``nav-steps``, ``outdoor-cost``, ``image-statistics``, ``sfa-engine``, ``leaderboard-timings`` and
 ``equivariance`` (:mod:`sfa_gym.report.formatters`)."""
 
 _BLOCK = re.compile(

@@ -1,0 +1,141 @@
+"""Study: how natural do our worlds look? The amplitude spectrum's slope and the local contrast
+of their panoramas (:mod:`sfa_gym.image_statistics`).
+
+For each world and camera, ``--panoramas`` panoramas at seeded random poses (``env.reset(seed=
+i)``, world seed 0); their grey levels' radially averaged amplitude spectrum is fitted by
+``1/f^alpha`` (natural scenes: about 1.0; issue 35 asks for 0.9-1.2) and the RMS contrast of
+their 8 x 8 patches is summarised by percentiles. Writes ``published/studies/
+image_statistics.json`` and ``docs/image_statistics.png`` (the spectra, log-log, beside the
+natural-image band).
+
+Usage (from the repository root; about a minute on 2 cores)::
+
+    .venv/bin/python -m studies.image_statistics
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tyro
+from tqdm.auto import tqdm
+
+from sfa_gym.files import write_json_atomic
+from sfa_gym.image_statistics import local_contrast, spectrum_slope
+
+ROOT = Path(__file__).resolve().parents[1]
+
+VIEWS: dict[str, tuple[str, dict[str, Any]]] = {
+    "paper_sim, 40 x 350": ("sfa_gym/OmniRover-v0", {}),
+    "paper_sim, 60 x 600": ("sfa_gym/OmniRoverOutdoorCam-v0", {}),
+    "paper_sim_obstacles, 40 x 350": ("sfa_gym/OmniRover-v0", {"world": "paper_sim_obstacles"}),
+    "paper_outdoor, cylindrical 60 x 600": (
+        "sfa_gym/OmniRoverOutdoor-v0",
+        {"camera": "cylindrical", "mirror": None, "sensor": False},
+    ),
+    "paper_outdoor, mirror 60 x 600": ("sfa_gym/OmniRoverOutdoor-v0", {}),
+}
+"""The worlds and cameras measured: an env id and its kwargs."""
+
+NATURAL = (0.9, 1.2)
+"""The band of ``alpha`` the worlds should reach (natural scenes: about 1.0)."""
+
+
+@dataclass
+class Args:
+    panoramas: int = 24
+    """panoramas per world and camera"""
+    json: Path = ROOT / "published" / "studies" / "image_statistics.json"
+    """where to write the figures"""
+    png: Path = ROOT / "docs" / "image_statistics.png"
+    """where to draw the spectra"""
+
+
+def _panoramas(env_id: str, kwargs: dict[str, Any], n: int) -> np.ndarray:
+    import gymnasium as gym
+
+    import sfa_gym  # noqa: F401  (registers the envs)
+
+    env = gym.make(env_id, **kwargs)
+    try:
+        return np.stack([env.reset(seed=i)[0] for i in range(n)])
+    finally:
+        env.close()
+
+
+def measure(n: int) -> dict[str, Any]:
+    """``{view: {"alpha", "contrast_percentiles", "spectrum"}}`` of every :data:`VIEWS`."""
+    out = {}
+    for name, (env_id, kwargs) in tqdm(VIEWS.items(), desc="worlds"):
+        images = _panoramas(env_id, kwargs, n)
+        spectrum = spectrum_slope(images)
+        contrast = local_contrast(images)
+        out[name] = {
+            "env_id": env_id,
+            "env_kwargs": kwargs,
+            "shape": list(images.shape[1:3]),
+            "alpha": round(spectrum.alpha, 3),
+            "fitted_cycles_per_pixel": [round(spectrum.f_low, 4), spectrum.f_high],
+            "contrast_percentiles": {
+                str(q): round(float(np.percentile(contrast, q)), 4) for q in (10, 50, 90)
+            },
+            "spectrum": {
+                "cycles_per_pixel": [round(float(f), 5) for f in spectrum.frequencies],
+                "amplitude": [float(f"{a:.5g}") for a in spectrum.amplitude],
+            },
+        }
+        print(
+            f"{name:38s} alpha {spectrum.alpha:5.2f}, median local contrast "
+            f"{out[name]['contrast_percentiles']['50']:.3f}"
+        )
+    return out
+
+
+def draw(found: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
+    for name, entry in found.items():
+        f = np.asarray(entry["spectrum"]["cycles_per_pixel"])
+        a = np.asarray(entry["spectrum"]["amplitude"])
+        ax.loglog(f, a / a[0], label=f"{name} (alpha {entry['alpha']:.2f})")
+    f = np.geomspace(0.03, 0.35, 10)
+    for alpha in NATURAL:
+        ax.loglog(f, (f / f[0]) ** -alpha, "k:", lw=0.8)
+    ax.text(
+        0.03, 0.04, "dotted: natural scenes, alpha 0.9 and 1.2", fontsize=8, transform=ax.transAxes
+    )
+    ax.set_xlabel("spatial frequency (cycles per pixel)")
+    ax.set_ylabel("amplitude (relative to the lowest bin)")
+    ax.set_title("Radially averaged amplitude spectra of grey panoramas")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main(args: Args) -> int:
+    found = measure(args.panoramas)
+    write_json_atomic(
+        args.json,
+        {
+            "study": "image_statistics",
+            "panoramas_per_view": args.panoramas,
+            "natural_alpha_band": list(NATURAL),
+            "views": found,
+        },
+    )
+    draw(found, args.png)
+    print(f"wrote {args.json} and {args.png}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(tyro.cli(Args)))
