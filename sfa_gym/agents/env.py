@@ -28,6 +28,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from sfa_gym._checks import check_positive_int
+
 __all__ = ["AGENT_FILE", "AgentEnv", "make_env"]
 
 AGENT_FILE = "agent.json"
@@ -76,9 +78,7 @@ class AgentEnv:
         if self.reward not in REWARDS:
             raise ValueError(f"reward must be one of {list(REWARDS)}, got {self.reward!r}")
         for name in ("history", "history_stride"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be an int of at least 1, got {value!r}")
+            check_positive_int(name, getattr(self, name))
         if self.oracle and self.field is None:
             raise ValueError("oracle needs a field: the env steps physics only, without pixels")
         if self.field is not None and not Path(self.field).is_file():

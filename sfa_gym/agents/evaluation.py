@@ -19,6 +19,7 @@ from stable_baselines3.common.preprocessing import is_image_space, is_image_spac
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecTransposeImage
 from tqdm import tqdm
 
+from sfa_gym._checks import check_positive_int
 from sfa_gym.agents.env import AgentEnv, make_env
 
 __all__ = ["EpisodeEnds", "NavigationEvalCallback", "SeededEpisodes", "evaluate", "eval_env"]
@@ -94,8 +95,7 @@ def evaluate(
 ) -> dict[str, float]:
     """Score the deterministic policy of ``model`` on the episodes ``seed ... seed + episodes -
     1`` of ``settings``'s env: success, SPL, final distance and the mean episode return."""
-    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise ValueError(f"episodes must be an int of at least 1, got {episodes!r}")
+    check_positive_int("episodes", episodes)
     venv = eval_env(settings, seed)
     ends = EpisodeEnds(episodes, progress)
     try:

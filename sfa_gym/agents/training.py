@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from sfa_gym._checks import check_finite, check_positive, check_positive_int
 from sfa_gym.agents.env import AgentEnv, read_agent_file, write_agent_file
 
 __all__ = ["CURVE", "FIELDS", "MODEL", "Training", "latest_checkpoint", "load_curve", "train"]
@@ -76,18 +77,14 @@ class Training:
         """Raises ValueError naming a bad value and what was expected."""
         for name in ("total_timesteps", "n_envs", "eval_every", "eval_episodes", "n_steps",
                      "batch_size", "n_epochs", "threads"):  # fmt: skip
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be an int of at least 1, got {value!r}")
+            check_positive_int(name, getattr(self, name))
         if self.eval_every < self.n_envs:
             raise ValueError(
                 f"eval_every must be at least n_envs ({self.n_envs}), got {self.eval_every}"
             )
         for name in ("learning_rate", "clip_range"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
-        if not self.ent_coef >= 0:
-            raise ValueError(f"ent_coef must be at least 0, got {self.ent_coef!r}")
+            check_positive(name, getattr(self, name))
+        check_finite("ent_coef", self.ent_coef, low=0.0)
 
 
 def save_curve(curve: list[dict[str, float]], path: Path) -> None:
