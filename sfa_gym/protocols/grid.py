@@ -35,7 +35,7 @@ from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols import RunSource
 from sfa_gym.protocols.features import fitted_features, invariance_entry, method_regressors
 from sfa_gym.protocols.scores import MethodScores
-from sfa_gym.protocols.settings import RenderSettings, check_choice
+from sfa_gym.protocols.settings import RenderSettings, check_choice, check_choices
 from sfa_gym.recording.cache import RunRequest
 
 __all__ = [
@@ -84,12 +84,7 @@ class Config(RenderSettings):
         for name in ("grid", "n_train", "n_test", "n_splits"):
             check_positive_int(name, getattr(self, name))
         check_choice("order", self.order, GridOrder)
-        if not isinstance(self.evaluations, tuple | list) or not self.evaluations:
-            raise ValueError(f"evaluations must be a non-empty tuple, got {self.evaluations!r}")
-        for evaluation in self.evaluations:
-            check_choice("evaluations", evaluation, GridEvaluation)
-        if len(set(self.evaluations)) != len(self.evaluations):
-            raise ValueError(f"evaluations {list(self.evaluations)} repeats an evaluation")
+        check_choices("evaluations", self.evaluations, GridEvaluation, "an evaluation")
         # the whole grid is rendered and held (a panorama and a pose per position)
         check_fits_in_memory(
             f"grid {self.grid} ({self.grid**2} positions)",

@@ -20,7 +20,7 @@ from typing import Any, Literal, get_args
 
 from sfa_gym._checks import check_int, check_positive_int, is_number
 from sfa_gym.localization.appearance import Normalisation
-from sfa_gym.protocols.settings import check_choice
+from sfa_gym.protocols.settings import check_choice, check_choices
 from sfa_gym.rotation import Rotation, check_step
 from sfa_gym.sim.worlds.sun import check_day_of_year, check_latitude
 
@@ -127,12 +127,7 @@ class Config:
             )
         if not 0.0 <= self.start_hour < 24.0:
             raise ValueError(f"start_hour must lie in [0, 24) hours, got {self.start_hour!r}")
-        if not isinstance(self.conditions, tuple | list) or not self.conditions:
-            raise ValueError(f"conditions must be a non-empty tuple, got {self.conditions!r}")
-        for condition in self.conditions:
-            check_choice("conditions", condition, Condition)
-        if len(set(self.conditions)) != len(self.conditions):
-            raise ValueError(f"conditions {list(self.conditions)} repeats a condition")
+        check_choices("conditions", self.conditions, Condition, "a condition")
         if not self.dynamics and set(self.conditions) - {"after"}:
             raise ValueError(
                 f"conditions {sorted(set(self.conditions) - {'after'})} change the dynamics; "

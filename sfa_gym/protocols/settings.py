@@ -27,6 +27,7 @@ __all__ = [
     "SFASettings",
     "WeightSharing",
     "check_choice",
+    "check_choices",
     "check_env_id",
     "check_panorama",
     "check_world",
@@ -69,6 +70,18 @@ def check_choice(name: str, value: Any, choices: Any) -> None:
     allowed = get_args(choices)
     if value not in allowed:
         raise ValueError(f"{name} must be one of {list(allowed)}, got {value!r}")
+
+
+def check_choices(name: str, values: Any, choices: Any, item: str) -> None:
+    """ValueError naming ``name`` unless ``values`` is a non-empty tuple (or list) of distinct
+    values of the Literal type ``choices``; ``item`` names one of them in the message ("an
+    evaluation")."""
+    if not isinstance(values, tuple | list) or not values:
+        raise ValueError(f"{name} must be a non-empty tuple, got {values!r}")
+    for value in values:
+        check_choice(name, value, choices)
+    if len(set(values)) != len(values):
+        raise ValueError(f"{name} {list(values)} repeats {item}")
 
 
 def check_env_id(name: str, env_id: Any) -> None:
