@@ -21,19 +21,17 @@ from __future__ import annotations
 
 import copy
 import random
-from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-__all__ = ["POSE_TOLERANCE", "SAMPLES", "rerender_mismatch"]
+from sfa_gym.recording.recorder import POSE_TOLERANCE, pose_difference
+
+__all__ = ["SAMPLES", "rerender_mismatch"]
 
 SAMPLES = 2
 """Panoramas rendered again per check besides the first."""
-
-POSE_TOLERANCE = 1e-6
-"""The largest difference, metres or radians, between a stored pose and the one made again."""
 
 
 def _sample_indices(n: int) -> set[int]:
@@ -41,16 +39,10 @@ def _sample_indices(n: int) -> set[int]:
     return {0, *chosen}
 
 
-def _pose_difference(found: Sequence[float], stored: Sequence[float]) -> float:
-    x, y, yaw = (float(a) - float(b) for a, b in zip(found, stored, strict=True))
-    yaw = abs((yaw + np.pi) % (2 * np.pi) - np.pi)
-    return max(abs(x), abs(y), yaw)
-
-
 def _compare(i: int, obs: Any, info: Any, run: Any, render: bool) -> str | None:
     from sfa_gym.recording.recorder import _pose_of
 
-    if _pose_difference(_pose_of(info), run.poses[i]) > POSE_TOLERANCE:
+    if pose_difference(_pose_of(info), run.poses[i]) > POSE_TOLERANCE:
         return f"sample {i}: stored pose {run.poses[i].tolist()}, made again {_pose_of(info)}"
     if render and not np.array_equal(np.asarray(obs), run.panoramas[i]):
         return f"sample {i}: the stored panorama differs from the one rendered again"
@@ -64,7 +56,8 @@ def rerender_mismatch(request: Any, run: Any) -> str | None:
 
     Returns:
         None if everything compared matches (pixels and actions exactly, poses within
-        :data:`POSE_TOLERANCE`), else what differs (the sample and the array).
+        :data:`~sfa_gym.recording.recorder.POSE_TOLERANCE`), else what differs (the sample and
+        the array).
     """
     from sfa_gym.recording.drivers import GridPositions
 
@@ -88,7 +81,7 @@ def _pose_list_mismatch(env: gym.Env, request: Any, run: Any) -> str | None:
     if len(run) > len(poses):
         return f"{len(run)} samples stored, but the grid has only {len(poses)} poses"
     for i in range(len(run)):
-        if _pose_difference(run.poses[i], poses[i]) > POSE_TOLERANCE:
+        if pose_difference(run.poses[i], poses[i]) > POSE_TOLERANCE:
             return f"sample {i}: stored pose {run.poses[i].tolist()}, asked {poses[i]}"
     for i in sorted(_sample_indices(len(run))):
         seed = _pose_seed(int(request.seed), i)

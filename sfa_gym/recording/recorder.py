@@ -18,7 +18,7 @@ import math
 import os
 import signal
 import threading
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -45,7 +45,7 @@ from sfa_gym.recording.runfile import (
     load_run,
 )
 
-__all__ = ["record", "RunMismatchError", "ReplayMismatchError"]
+__all__ = ["POSE_TOLERANCE", "record", "RunMismatchError", "ReplayMismatchError", "pose_difference"]
 
 # ------------------------------------------------------------------------- recording
 
@@ -114,6 +114,18 @@ def _pose_of(info: Mapping[str, Any]) -> NDArray[np.float64]:
         return np.array([info["x"], info["y"], info["yaw"]], dtype=np.float64)
     except KeyError as error:
         raise KeyError(f"recording needs info with 'x', 'y', 'yaw'; {error} is missing") from None
+
+
+POSE_TOLERANCE = 1e-6
+"""The largest difference, metres or radians, between a stored pose and the same sample made
+again (replayed to resume, or checked by :mod:`sfa_gym.recording.audit`)."""
+
+
+def pose_difference(found: Sequence[float], stored: Sequence[float]) -> float:
+    """The larger of the position differences and the heading difference (wrapped to
+    ``[0, pi]``) between two ``(x, y, yaw)`` poses."""
+    x, y, yaw = (float(a) - float(b) for a, b in zip(found, stored, strict=True))
+    return max(abs(x), abs(y), abs((yaw + math.pi) % (2 * math.pi) - math.pi))
 
 
 def _pose_seed(seed: int, index: int) -> int:
@@ -498,9 +510,7 @@ def _replay(
 
     def check_pose(i: int, info: Mapping[str, Any]) -> None:
         pose = _pose_of(info)
-        error = np.abs(pose - stored.poses[i])
-        error[2] = abs((pose[2] - stored.poses[i, 2] + np.pi) % (2 * np.pi) - np.pi)
-        if error.max() > 1e-6:
+        if pose_difference(pose, stored.poses[i]) > POSE_TOLERANCE:
             raise ReplayMismatchError(
                 f"{stored.path}: replaying sample {i} reached pose {pose.tolist()}, stored "
                 f"{stored.poses[i].tolist()}: the env is not deterministic; {advice}"
