@@ -20,14 +20,15 @@ from __future__ import annotations
 
 import functools
 import os
-import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
-from contextlib import contextmanager
+from contextlib import AbstractContextManager
 from typing import Any, TypeVar
 
 from threadpoolctl import OpenBLASController, ThreadpoolController
+
+from sfa_gym.sfa._scope import CountedScope
 
 __all__ = [
     "blas_controllable",
@@ -40,11 +41,6 @@ __all__ = [
 T = TypeVar("T")
 R = TypeVar("R")
 
-# The engine's scope is counted here, not by nesting threadpoolctl's limiters: it is entered from
-# several threads at once (pool threads fit nodes while the caller holds the limit), and the
-# thread that leaves last, which restores the counts, need not be the one that limited them.
-_lock = threading.Lock()
-_depth = 0
 _limiter: Any = None
 
 
@@ -97,26 +93,28 @@ def _release_openblas_control() -> None:
         clear()
 
 
-@contextmanager
-def single_threaded_blas() -> Iterator[None]:
+def _limit_blas() -> None:
+    global _limiter
+    _take_openblas_control()
+    _limiter = _blas().limit(limits=1)
+    _release_openblas_control()
+
+
+def _restore_blas() -> None:
+    global _limiter
+    _take_openblas_control()
+    _limiter.restore_original_limits()
+    _release_openblas_control()
+    _limiter = None
+
+
+# counted, not nested threadpoolctl limiters: see CountedScope
+_ONE_BLAS_THREAD = CountedScope(_limit_blas, _restore_blas)
+
+
+def single_threaded_blas() -> AbstractContextManager[None]:
     """Run BLAS with one thread inside the block (nestable, restores the previous counts)."""
-    global _depth, _limiter
-    with _lock:
-        if _depth == 0:
-            _take_openblas_control()
-            _limiter = _blas().limit(limits=1)
-            _release_openblas_control()
-        _depth += 1
-    try:
-        yield
-    finally:
-        with _lock:
-            _depth -= 1
-            if _depth == 0:
-                _take_openblas_control()
-                _limiter.restore_original_limits()
-                _release_openblas_control()
-                _limiter = None
+    return _ONE_BLAS_THREAD.held()
 
 
 def available_cpus() -> int:

@@ -56,6 +56,7 @@ from sklearn.utils.validation import check_is_fitted
 from sfa_gym._types import check_views
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.rotation import check_window, n_rotations, rotation_columns
+from sfa_gym.sfa._heap import kept_heap
 from sfa_gym.sfa._layers import LayerParams
 from sfa_gym.sfa._parallel import n_workers, ordered_map, single_threaded_blas
 from sfa_gym.sfa._sources import (
@@ -322,7 +323,7 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         source: Source,
     ) -> None:
         tol = DEFAULT_RANK_TOL[self.dtype] if self.rank_tol is None else float(self.rank_tol)
-        with single_threaded_blas():
+        with single_threaded_blas(), kept_heap():
             params = train_layers(
                 source,
                 layers,

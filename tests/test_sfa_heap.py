@@ -1,0 +1,60 @@
+"""Freed memory kept on the heap while SFA trains: fewer page faults, the same model."""
+
+from __future__ import annotations
+
+import contextlib
+import resource
+import warnings
+
+import numpy as np
+import pytest
+
+import sfa_gym.sfa.network as network
+from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
+from sfa_gym.sfa._heap import _glibc, kept_heap
+from sfa_gym.sfa.synthetic import synthetic_panoramas
+
+glibc_only = pytest.mark.skipif(_glibc() is None, reason="mallopt is glibc's; a no-op elsewhere")
+
+
+def _page_faults_of_large_arrays(repeats: int = 3) -> int:
+    """Minor page faults of allocating, touching and freeing a 64 MB array ``repeats`` times."""
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    for _ in range(repeats):
+        block = np.ones(64 * 2**20 // 8)
+        del block
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+
+
+@glibc_only
+def test_kept_heap_reuses_freed_pages_and_restores_glibc_on_exit():
+    outside = _page_faults_of_large_arrays()
+    assert outside > 0  # glibc maps a block this large afresh each time
+    with kept_heap(), kept_heap():  # nested, as the engine's scopes may be
+        _page_faults_of_large_arrays(1)  # the first block grows the heap
+        inside = _page_faults_of_large_arrays()
+    assert inside < outside / 4
+    assert _page_faults_of_large_arrays() > inside  # back to glibc's behaviour
+
+
+def _fit(panoramas: np.ndarray) -> HierarchicalSFA:
+    model = HierarchicalSFA(presets.tiny(), n_outputs=4, progress=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RankDeficiencyWarning)
+        return model.fit_rotations(panoramas, step=4)
+
+
+def test_keeping_the_heap_changes_no_bit_of_the_model(monkeypatch):
+    panoramas = synthetic_panoramas(16, 10, 40, seed=5, n_keyframes=5)
+    kept = _fit(panoramas)
+    monkeypatch.setattr(network, "kept_heap", contextlib.nullcontext)
+    plain = _fit(panoramas)
+    for a, b in zip(kept.layer_params_, plain.layer_params_, strict=True):
+        for part in ("reduce", "expand"):
+            x, y = getattr(a, part), getattr(b, part)
+            assert (x is None) == (y is None)
+            if x is not None:
+                np.testing.assert_array_equal(x.weight, y.weight)
+                np.testing.assert_array_equal(x.bias, y.bias)
+                np.testing.assert_array_equal(x.delta, y.delta)
+    np.testing.assert_array_equal(kept.transform(panoramas), plain.transform(panoramas))
