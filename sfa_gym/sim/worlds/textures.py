@@ -92,7 +92,7 @@ def png_bytes(image: NDArray[np.uint8]) -> bytes:
     return (
         b"\x89PNG\r\n\x1a\n"
         + chunk(b"IHDR", header)
-        + chunk(b"IDAT", zlib.compress(rows.tobytes(), 6))
+        + chunk(b"IDAT", zlib.compress(rows.tobytes(), 1))
         + chunk(b"IEND", b"")
     )
 
@@ -109,11 +109,12 @@ def noise(
     ``stretch > 1`` elongates the structures along the rows' axis (axis 0) by that factor.
     """
     fy = np.fft.fftfreq(n)[:, None] * stretch
-    fx = np.fft.fftfreq(n)[None, :]
+    fx = np.fft.rfftfreq(n)[None, :]
     f = np.hypot(fx, fy)
     f[0, 0] = np.inf  # no mean
-    spectrum = (rng.standard_normal((n, n)) + 1j * rng.standard_normal((n, n))) / f**exponent
-    field = np.fft.ifft2(spectrum).real
+    shape = f.shape
+    spectrum = (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) / f**exponent
+    field = np.fft.irfft2(spectrum, s=(n, n))
     return (field - field.mean()) / max(field.std(), 1e-12)
 
 
@@ -262,14 +263,14 @@ def bark(rng: np.random.Generator, n: int, base: RGB) -> NDArray[np.float64]:
 def foliage(rng: np.random.Generator, n: int, base: RGB, gaps: float) -> NDArray[np.float64]:
     """Leaf clumps over the dark inside of a crown: leaves lit and shaded (their brightness
     varies by a factor of about two), jittered in hue; the gaps between clumps dark."""
-    clumps = noise(rng, n, 1.2)
+    clumps = noise(rng, n, 0.9)
     threshold = np.quantile(clumps, gaps) if gaps > 0 else -np.inf
     hue = noise(rng, n, 0.5)
     colour = np.empty((n, n, 3))
     for k, (dh, ds, dv) in enumerate(((0.03, 0.05, -0.05), (-0.03, -0.05, 0.08))):
         part = (hue > 0) == (k == 0)
         colour[part] = np.asarray(_hsv_shift(base, dh, ds, dv))
-    light = np.exp(0.4 * _grain(rng, n) + 0.3 * np.tanh(clumps))
+    light = np.exp(0.3 * _grain(rng, n) + 0.5 * np.tanh(clumps))
     light[clumps < threshold] *= 0.25  # the shaded inside of the crown
     return colour * (light / light.mean())[..., None]
 

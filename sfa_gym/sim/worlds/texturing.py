@@ -67,8 +67,6 @@ class Texturer:
             raise ValueError(f"surface must be one of {SURFACES}, got {surface!r}")
         rng, spec = self._rng(surface, source), self.spec
         n = spec.resolution // 2 if surface in CUBE_SURFACES else spec.resolution
-        if surface == "facade":  # a whole face: a few bays in the texels of one tile
-            n = 2 * spec.resolution
         if surface == "asphalt":
             out = _tx.asphalt(rng, n, rgb, spec.cracks)
         elif surface == "grass":
