@@ -264,6 +264,27 @@ def outdoor_cost_table(files: Sequence[dict[str, Any]], options: dict[str, str])
     return "\n".join(lines)
 
 
+def textures_cost_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Milliseconds per env step flat and textured, each textured env's ratio to its flat one
+    (``benchmarks/bench_textures.py``)."""
+    lines = _head(["env, 600 x 60", "ms per step", "ratio to flat"])
+    for data in files:
+        for name, row in data["rows"].items():
+            lines.append(_row([name, f"{row['ms_per_step']:.1f}", f"{row['ratio']:.2f}"]))
+    return "\n".join(lines)
+
+
+def textures_build_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Seconds to build the outdoor world and to construct its env, flat and textured
+    (``benchmarks/bench_textures.py``)."""
+    lines = _head(["paper_outdoor", "build_world (s)", "env construction (s)"])
+    for data in files:
+        for name, row in data["build"].items():
+            cells = [f"{row['build_world_s']:.3f}", f"{row['env_construction_s']:.3f}"]
+            lines.append(_row([name, *cells]))
+    return "\n".join(lines)
+
+
 def image_statistics_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
     """The amplitude spectrum's slope and the local contrast's percentiles of each world and
     camera (``studies/image_statistics.py``)."""

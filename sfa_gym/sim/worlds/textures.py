@@ -18,9 +18,11 @@ every scale, and each generator here models where a surface's comes from:
   blotches and dirt streaks under the sill), around a framed window whose glass reflects a
   brighter sky at the top;
 * **bark**: vertical furrows (noise stretched along the trunk);
-* **foliage** and **bush**: clumps of lit leaves over the dark inside of the crown; MuJoCo
-  draws no alpha-tested holes, so the gaps between clumps are dark, as the shaded inside of a
-  crown looks from outside.
+* **foliage** and **bush**: clumps of lit leaves over the dark inside of the crown. Holes
+  would need a texture's alpha channel, and MuJoCo loads the cube textures that map onto
+  round crowns with three channels only ("cube and skybox textures loaded from files must have
+  3 channels"), so the gaps between clumps are dark, as the shaded inside of a crown looks from
+  outside.
 
 All noise is synthesised in the Fourier domain, so every texture tiles seamlessly. A texture
 is a pure function of its generator's arguments and a ``numpy`` generator: the world seed
@@ -261,8 +263,10 @@ def bark(rng: np.random.Generator, n: int, base: RGB) -> NDArray[np.float64]:
 
 
 def foliage(rng: np.random.Generator, n: int, base: RGB, gaps: float) -> NDArray[np.float64]:
-    """Leaf clumps over the dark inside of a crown: leaves lit and shaded (their brightness
-    varies by a factor of about two), jittered in hue; the gaps between clumps dark."""
+    """Leaf clumps over the dark inside of a crown: lit and shaded clumps (their brightness
+    varies by a factor of up to about three, as between sunlit and shaded leaves), single
+    leaves jittered in brightness and the clumps in hue; the gaps between clumps dark (a
+    quarter of the clumps' brightness)."""
     clumps = noise(rng, n, 0.9)
     threshold = np.quantile(clumps, gaps) if gaps > 0 else -np.inf
     hue = noise(rng, n, 0.5)
