@@ -26,11 +26,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import gymnasium as gym
-import numpy as np
 import tyro
-from tqdm import tqdm
 
 import sfa_gym  # noqa: F401  (registers the ids)
+from benchmarks.bench_outdoor import time_steps
 from sfa_gym.sim.env import OmniRoverEnv
 from sfa_gym.sim.worlds import build_world, load_world_spec
 from sfa_gym.sim.worlds.textures import TexturesSpec
@@ -91,20 +90,7 @@ def main(args: Args) -> None:
     envs = {}
     for flat_name, (make, textured_name) in PAIRS.items():
         envs[flat_name], envs[textured_name] = make(False), make(True)
-    action = np.array([0.3, 0.2], np.float32)
-    for env in envs.values():  # GL contexts, texture uploads and remap tables outside the timing
-        env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})
-        env.step(action)
-    times: dict[str, list[float]] = {name: [] for name in envs}
-    for _ in tqdm(range(args.repeats), desc="batches"):
-        for name, env in envs.items():
-            env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})
-            start = time.perf_counter()
-            for _ in range(args.steps):
-                env.step(action)
-            times[name].append((time.perf_counter() - start) / args.steps)
-    for env in envs.values():
-        env.close()
+    times = time_steps(envs, args.steps, args.repeats)
 
     rows = {}
     for flat_name, (_, textured_name) in PAIRS.items():

@@ -38,10 +38,10 @@ def _panorama(env, pose: tuple[float, float, float], hour: float) -> np.ndarray:
 
 def main(args: Args) -> None:
     import gymnasium as gym
-    from matplotlib.figure import Figure
 
     import sfa_gym  # noqa: F401  (registers the ids)
     from sfa_gym.sim.camera import PanoramaSpec
+    from studies.outdoor_figures import save_strip
 
     common = {"world_seed": args.world_seed, "sensor": False}
     cylinder = {"camera": "cylindrical", "mirror": None}
@@ -69,19 +69,10 @@ def main(args: Args) -> None:
         rows.append((f"{kind}, mirror camera 600 x 60, centre", _panorama(env, CENTRE, args.hour)))
         env.close()
 
-    heights = [image.shape[0] / image.shape[1] for _, image in rows]
-    fig = Figure(figsize=(10.0, 10.0 * sum(heights) + 0.25 * len(rows)), layout="constrained")
-    axes = fig.subplots(len(rows), 1, gridspec_kw={"height_ratios": heights})
-    for ax, (title, image) in zip(axes, rows, strict=True):
-        ax.imshow(image, interpolation="antialiased")
-        ax.set_title(
-            f"paper_outdoor seed {args.world_seed}, {args.hour:g} h, {title}",
-            fontsize=8,
-            loc="left",
-        )
-        ax.set_axis_off()
+    height = sum(10.0 * image.shape[0] / image.shape[1] + 0.25 for _, image in rows)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(args.out, dpi=100)
+    prefix = f"paper_outdoor seed {args.world_seed}, {args.hour:g} h"
+    save_strip(rows, args.out, prefix, height, interpolation="antialiased")
     print(f"wrote {args.out} ({args.out.stat().st_size / 1e3:.0f} kB)")
 
 

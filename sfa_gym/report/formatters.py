@@ -256,18 +256,10 @@ def nav_steps_table(files: Sequence[dict[str, Any]], options: dict[str, str]) ->
 
 
 def outdoor_cost_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
-    """Milliseconds per env step and the ratio to the first row (the static ``paper_sim``)."""
-    lines = _head(["env, 600 x 60", "ms per step", "ratio"])
-    for data in files:
-        for name, row in data["rows"].items():
-            lines.append(_row([name, f"{row['ms_per_step']:.1f}", f"{row['ratio']:.2f}"]))
-    return "\n".join(lines)
-
-
-def textures_cost_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
-    """Milliseconds per env step flat and textured, each textured env's ratio to its flat one
+    """Milliseconds per env step and each row's ratio to its reference: the static
+    ``paper_sim`` (``benchmarks/bench_outdoor.py``) or the flat env of its pair
     (``benchmarks/bench_textures.py``)."""
-    lines = _head(["env, 600 x 60", "ms per step", "ratio to flat"])
+    lines = _head(["env, 600 x 60", "ms per step", "ratio"])
     for data in files:
         for name, row in data["rows"].items():
             lines.append(_row([name, f"{row['ms_per_step']:.1f}", f"{row['ratio']:.2f}"]))
