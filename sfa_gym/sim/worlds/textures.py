@@ -262,20 +262,38 @@ def bark(rng: np.random.Generator, n: int, base: RGB) -> NDArray[np.float64]:
     return _paint(base, np.exp(0.4 * noise(rng, n, 1.0, 6.0) + 0.1 * _grain(rng, n)))
 
 
+def _domes(rng: np.random.Generator, n: int, count: int) -> NDArray[np.float64]:
+    """Shading of ``count`` round clumps that tile the texture (the cells of random centres,
+    distances wrapped round its edges): 1 at a clump's centre, falling to 0 where it meets its
+    neighbours (the shaded creases between them)."""
+    centres = rng.uniform(0, n, (count, 2)).astype(np.float32)
+    grid = np.arange(n, dtype=np.float32)
+    dy = grid[:, None, None] - centres[None, None, :, 0]
+    dx = grid[None, :, None] - centres[None, None, :, 1]
+    dy -= n * np.round(dy / n)
+    dx -= n * np.round(dx / n)
+    distance = np.sqrt(dy * dy + dx * dx)
+    nearest = np.partition(distance, 1, axis=2)[..., :2]
+    # the crease lies where the two nearest centres are equally far
+    return np.clip((nearest[..., 1] - nearest[..., 0]) / (nearest[..., 1] + 1e-6), 0.0, 1.0)
+
+
 def foliage(rng: np.random.Generator, n: int, base: RGB, gaps: float) -> NDArray[np.float64]:
-    """Leaf clumps over the dark inside of a crown: lit and shaded clumps (their brightness
-    varies by a factor of up to about three, as between sunlit and shaded leaves), single
-    leaves jittered in brightness and the clumps in hue; the gaps between clumps dark (a
-    quarter of the clumps' brightness)."""
-    clumps = noise(rng, n, 0.9)
-    threshold = np.quantile(clumps, gaps) if gaps > 0 else -np.inf
+    """Leaf clumps over the dark inside of a crown: round clumps of leaves (about 12 texels
+    apart) lit at their middles and shaded where they meet, larger groups of them lit and
+    shaded (by a factor of up to about two, as between sunlit and shaded leaves), single
+    leaves jittered in brightness and the clumps in hue; where the larger groups part, the
+    crown's dark inside (a quarter of the leaves' brightness) shows."""
+    groups = noise(rng, n, 1.0)
+    threshold = np.quantile(groups, gaps) if gaps > 0 else -np.inf
     hue = noise(rng, n, 0.5)
     colour = np.empty((n, n, 3))
     for k, (dh, ds, dv) in enumerate(((0.03, 0.05, -0.05), (-0.03, -0.05, 0.08))):
         part = (hue > 0) == (k == 0)
         colour[part] = np.asarray(_hsv_shift(base, dh, ds, dv))
-    light = np.exp(0.3 * _grain(rng, n) + 0.5 * np.tanh(clumps))
-    light[clumps < threshold] *= 0.25  # the shaded inside of the crown
+    domes = _domes(rng, n, max(4, (n // 12) ** 2))
+    light = (0.35 + 0.65 * np.sqrt(domes)) * np.exp(0.25 * _grain(rng, n) + 0.35 * np.tanh(groups))
+    light[groups < threshold] *= 0.25  # the shaded inside of the crown
     return colour * (light / light.mean())[..., None]
 
 
