@@ -210,7 +210,7 @@ def facade(
 ) -> NDArray[np.float64]:
     """One face of a building, ``bays = (columns, storeys)`` window bays of ``bay_m = (width,
     height)`` metres (row 0 is the top): brick or plaster around framed windows, each window
-    with its own reflection and blind."""
+    with its own reflection and blind, over a concrete plinth and under a coping."""
     columns, storeys = bays
     width, height = bay_m
     y = (np.arange(n)[:, None] + 0.5) / n * storeys  # storeys from the top
@@ -254,6 +254,12 @@ def facade(
     glass_rgb[v > down] = (0.75, 0.72, 0.66)
     colour[pane] = glass_rgb[pane]
     colour[(v < sill) & (v > sill - 0.06) & (np.abs(u) < half + 0.05)] = 0.8  # the sill
+    ground = row == storeys - 1
+    # rain splashes dirt onto the lowest metre; a concrete plinth; a coping along the roof
+    colour[ground & (v < 1.0)] *= (0.88 + 0.12 * v[ground & (v < 1.0)])[:, None]
+    plinth = ground & (v < 0.4)
+    colour[plinth] = _paint((0.5, 0.49, 0.47), np.exp(0.1 * noise(rng, n)))[plinth]
+    colour[(row == 0) & (v > height - 0.2)] = (0.78, 0.77, 0.74)
     return colour
 
 
