@@ -135,7 +135,7 @@ def draw(found: dict[str, Any], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
+    fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=100)
     for name, entry in found.items():
         f = np.asarray(entry["spectrum"]["cycles_per_pixel"])
         a = np.asarray(entry["spectrum"]["amplitude"])
@@ -145,12 +145,17 @@ def draw(found: dict[str, Any], path: Path) -> None:
     for alpha in NATURAL:
         ax.loglog(f, (f / f[0]) ** -alpha, "k:", lw=0.8)
     ax.text(
-        0.03, 0.04, "dotted: natural scenes, alpha 0.9 and 1.2", fontsize=8, transform=ax.transAxes
+        0.97,
+        0.95,
+        "dotted: natural scenes, alpha 0.9 and 1.2",
+        fontsize=8,
+        ha="right",
+        transform=ax.transAxes,
     )
     ax.set_xlabel("spatial frequency (cycles per pixel)")
     ax.set_ylabel("amplitude (relative to the lowest bin)")
     ax.set_title("Radially averaged amplitude spectra of grey panoramas")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=6.5, loc="lower left")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)

@@ -267,9 +267,9 @@ def outdoor_cost_table(files: Sequence[dict[str, Any]], options: dict[str, str])
 
 
 def textures_build_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
-    """Seconds to build the outdoor world and to construct its env, flat and textured
+    """CPU seconds to build the outdoor world and to construct its env, flat and textured
     (``benchmarks/bench_textures.py``)."""
-    lines = _head(["paper_outdoor", "build_world (s)", "env construction (s)"])
+    lines = _head(["paper_outdoor", "build_world (CPU s)", "env construction (CPU s)"])
     for data in files:
         for name, row in data["build"].items():
             cells = [f"{row['build_world_s']:.3f}", f"{row['env_construction_s']:.3f}"]

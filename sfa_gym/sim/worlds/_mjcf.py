@@ -3,6 +3,8 @@ accumulator of assets and geoms that draws from one random generator in a fixed 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from sfa_gym.sim.worlds.spec import SurfaceSpec, WorldSpec
@@ -34,7 +36,7 @@ class Builder:
         self.textures: Texturer | None = None
         self.colours: dict[str, tuple[float, float, float]] = {}  # material -> mean colour
 
-    def textured(self, surface: str, material: str, **extra) -> str:
+    def textured(self, surface: str, material: str, **extra: Any) -> str:
         """``material``; with generated textures on, a material of the ``surface``'s texture
         (:data:`~sfa_gym.sim.worlds.texturing.SURFACES`) in ``material``'s mean colour
         instead (``extra``: see :meth:`Texturer.material`)."""

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import zlib
+from typing import Any
 
 import numpy as np
 
@@ -59,7 +60,7 @@ class Texturer:
             [self.world_seed, _STREAM, SURFACES.index(surface), zlib.crc32(source.encode())]
         )
 
-    def image(self, surface: str, source: str, rgb: RGB, **extra) -> np.ndarray:
+    def image(self, surface: str, source: str, rgb: RGB, **extra: Any) -> np.ndarray:
         """The ``(n, n, 3)`` uint8 texture of ``surface`` replacing material ``source`` of
         mean colour ``rgb``; ``extra`` for facades: ``glass`` (RGB), ``bays`` (columns,
         storeys) and ``bay_m`` (width, height)."""
@@ -92,7 +93,7 @@ class Texturer:
         rgb: RGB,
         assets: list[str],
         repeat: tuple[float, float] | None = None,
-        **extra,
+        **extra: Any,
     ) -> str:
         """The name of a textured material for ``surface`` in place of material ``source``;
         its texture and material go into ``assets`` the first time (a material shared by
