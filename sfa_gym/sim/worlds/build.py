@@ -108,7 +108,7 @@ class World:
     mjcf: str
     layout: WorldLayout
     lanes: Lanes | None = None
-    assets: dict[str, bytes] = field(default_factory=dict)
+    assets: dict[str, bytes] = field(default_factory=dict, hash=False)
 
 
 def _wall_panels(b: _Builder) -> None:
