@@ -161,8 +161,11 @@ def test_the_textured_id_is_the_outdoor_id_with_textures():
         ({"resolution": 16}, "power of two"),
         ({"resolution": True}, "power of two"),
         ({"tile_m": 0.1}, "tile_m"),
+        ({"tile_m": True}, "tile_m"),
+        ({"tile_m": float("nan")}, "tile_m"),
         ({"cracks": -1}, "cracks"),
         ({"canopy_gaps": 0.95}, "canopy_gaps"),
+        ({"canopy_gaps": "0.3"}, "canopy_gaps"),
     ],
 )
 def test_bad_texture_settings_are_refused_by_name(settings, message):

@@ -39,6 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym._checks import is_number
+
 RGB = tuple[float, float, float]
 
 __all__ = ["GENERATORS", "TexturesSpec", "png_bytes", "to_uint8"]
@@ -68,14 +70,14 @@ class TexturesSpec:
             raise ValueError(
                 f"textures resolution must be a power of two in [32, 2048] texels, got {r!r}"
             )
-        if not (isinstance(self.tile_m, int | float) and 0.4 <= self.tile_m <= 20.0):
+        if not (is_number(self.tile_m) and 0.4 <= self.tile_m <= 20.0):
             raise ValueError(
                 f"textures tile_m must lie in [0.4, 20] metres (one paving slab to a few "
                 f"metres of ground), got {self.tile_m!r}"
             )
         if isinstance(self.cracks, bool) or not isinstance(self.cracks, int) or self.cracks < 0:
             raise ValueError(f"textures cracks must be an int >= 0, got {self.cracks!r}")
-        if not (isinstance(self.canopy_gaps, int | float) and 0.0 <= self.canopy_gaps <= 0.9):
+        if not (is_number(self.canopy_gaps) and 0.0 <= self.canopy_gaps <= 0.9):
             raise ValueError(f"textures canopy_gaps must lie in [0, 0.9], got {self.canopy_gaps!r}")
 
 
