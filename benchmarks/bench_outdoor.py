@@ -25,6 +25,7 @@ import statistics
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -55,25 +56,37 @@ class Args:
     """where the figures are written"""
 
 
+def time_steps(
+    envs: dict[str, Any], steps: int, repeats: int
+) -> tuple[dict[str, list[float]], dict[str, list[float]]]:
+    """Seconds per step of each env in ``repeats`` interleaved batches of ``steps`` steps (a
+    slow curve from the same start), after a first step outside the timing (GL contexts,
+    texture uploads, remap tables): wall-clock and the process's CPU time (all its threads,
+    the software rasteriser's among them). The envs are closed afterwards."""
+    action = np.array([0.3, 0.2], np.float32)
+    for env in envs.values():
+        env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})
+        env.step(action)
+    times: dict[str, list[float]] = {name: [] for name in envs}
+    cpu: dict[str, list[float]] = {name: [] for name in envs}
+    for _ in tqdm(range(repeats), desc="batches"):
+        for name, env in envs.items():
+            env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})
+            start, start_cpu = time.perf_counter(), time.process_time()
+            for _ in range(steps):
+                env.step(action)
+            times[name].append((time.perf_counter() - start) / steps)
+            cpu[name].append((time.process_time() - start_cpu) / steps)
+    for env in envs.values():
+        env.close()
+    return times, cpu
+
+
 def main(args: Args) -> None:
     if args.steps < 1 or args.repeats < 1:
         raise SystemExit(f"--steps and --repeats must be >= 1, got {args.steps}, {args.repeats}")
 
-    envs = {name: make() for name, make in CASES.items()}
-    action = np.array([0.3, 0.2], np.float32)
-    for env in envs.values():  # GL contexts and remap tables outside the timing
-        env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})
-        env.step(action)
-    times: dict[str, list[float]] = {name: [] for name in envs}
-    for _ in tqdm(range(args.repeats), desc="batches"):
-        for name, env in envs.items():
-            env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})
-            start = time.perf_counter()
-            for _ in range(args.steps):
-                env.step(action)
-            times[name].append((time.perf_counter() - start) / args.steps)
-    for env in envs.values():
-        env.close()
+    times, _ = time_steps({name: make() for name, make in CASES.items()}, args.steps, args.repeats)
 
     reference = statistics.median(times[REFERENCE])
     rows = {

@@ -12,6 +12,7 @@ ENV_IDS = (
     "sfa_gym/OmniRover-v0",
     "sfa_gym/OmniRoverOutdoorCam-v0",
     "sfa_gym/OmniRoverOutdoor-v0",
+    "sfa_gym/OmniRoverOutdoorTextured-v0",
 )
 """Exploration envs: no task, panorama observations."""
 NAV_ENV_IDS = (
@@ -48,7 +49,19 @@ def register_envs() -> None:
       (60 x 600 unwarped panoramas), with its dynamics (sun over the day, clouds, movers) and
       the camera's auto-exposure and noise, on the sprung mast of ``RoverSpec.outdoor()`` (the
       view tilts at turning points); each effect can be switched off by a kwarg.
+    * ``sfa_gym/OmniRoverOutdoorTextured-v0``: the same with generated surface textures
+      (``textures=True``: asphalt, grass, paving, brick and plaster facades, bark, foliage;
+      :mod:`sfa_gym.sim.worlds.textures`); the same places, poses and everything else.
     """
+    outdoor = {
+        "world": "paper_outdoor",
+        "panorama": "paper_outdoor",
+        "camera": "mirror",
+        "mirror": "paper_outdoor",
+        "dynamics": True,
+        "sensor": True,
+        "rover": "outdoor",
+    }
     specs = {
         "sfa_gym/OmniRover-v0": (_ENTRY_POINT, _MAX_EPISODE_STEPS, {"world": "paper_sim"}),
         "sfa_gym/OmniRoverOutdoorCam-v0": (
@@ -63,18 +76,11 @@ def register_envs() -> None:
             {"world": "paper_sim_obstacles"},
         ),
         "sfa_gym/OmniRoverNavMaze-v0": (_NAV_ENTRY_POINT, _MAZE_STEPS, {"world": "paper_sim_maze"}),
-        "sfa_gym/OmniRoverOutdoor-v0": (
+        "sfa_gym/OmniRoverOutdoor-v0": (_ENTRY_POINT, _MAX_EPISODE_STEPS, dict(outdoor)),
+        "sfa_gym/OmniRoverOutdoorTextured-v0": (
             _ENTRY_POINT,
             _MAX_EPISODE_STEPS,
-            {
-                "world": "paper_outdoor",
-                "panorama": "paper_outdoor",
-                "camera": "mirror",
-                "mirror": "paper_outdoor",
-                "dynamics": True,
-                "sensor": True,
-                "rover": "outdoor",
-            },
+            {**outdoor, "textures": True},
         ),
     }
     for env_id, (entry_point, steps, kwargs) in specs.items():

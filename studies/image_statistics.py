@@ -4,7 +4,11 @@ of their panoramas (:mod:`sfa_gym.image_statistics`).
 For each world and camera, ``--panoramas`` panoramas at seeded random poses (``env.reset(seed=
 i)``, world seed 0); their grey levels' radially averaged amplitude spectrum is fitted by
 ``1/f^alpha`` (natural scenes: about 1.0; issue 35 asks for 0.9-1.2) and the RMS contrast of
-their 8 x 8 patches is summarised by percentiles. Writes ``published/studies/
+their 8 x 8 patches is summarised by percentiles. The outdoor world is measured flat and with
+its generated textures (``sfa_gym/OmniRoverOutdoorTextured-v0``). Two photographs measured the
+same way calibrate the yardstick at this size: scikit-learn's sample images (a temple among
+trees, and a flower before a blurred background), cut into overlapping strips of the
+panoramas' 1:10 aspect and shrunk to 60 x 600. Writes ``published/studies/
 image_statistics.json`` and ``docs/image_statistics.png`` (the spectra, log-log, beside the
 natural-image band).
 
@@ -37,8 +41,19 @@ VIEWS: dict[str, tuple[str, dict[str, Any]]] = {
         {"camera": "cylindrical", "mirror": None, "sensor": False},
     ),
     "paper_outdoor, mirror 60 x 600": ("sfa_gym/OmniRoverOutdoor-v0", {}),
+    "paper_outdoor textured, cylindrical 60 x 600": (
+        "sfa_gym/OmniRoverOutdoorTextured-v0",
+        {"camera": "cylindrical", "mirror": None, "sensor": False},
+    ),
+    "paper_outdoor textured, mirror 60 x 600": ("sfa_gym/OmniRoverOutdoorTextured-v0", {}),
 }
 """The worlds and cameras measured: an env id and its kwargs."""
+
+PHOTOGRAPHS = {
+    "photograph, temple and trees, 60 x 600 strips": "china.jpg",
+    "photograph, flower, 60 x 600 strips": "flower.jpg",
+}
+"""Reference rows: scikit-learn's sample photographs (``sklearn.datasets.load_sample_image``)."""
 
 NATURAL = (0.9, 1.2)
 """The band of ``alpha`` the worlds should reach (natural scenes: about 1.0)."""
@@ -66,16 +81,36 @@ def _panoramas(env_id: str, kwargs: dict[str, Any], n: int) -> np.ndarray:
         env.close()
 
 
+def _strips(photo: str, shape: tuple[int, int] = (60, 600)) -> np.ndarray:
+    """Strips of ``photo`` with the panoramas' aspect, half a strip apart, shrunk (box filter)
+    to ``shape``."""
+    import cv2
+    from sklearn.datasets import load_sample_image
+
+    image = load_sample_image(photo)
+    rows = image.shape[1] * shape[0] // shape[1]
+    starts = range(0, image.shape[0] - rows + 1, rows // 2)
+    size = (shape[1], shape[0])
+    return np.stack(
+        [cv2.resize(image[y : y + rows], size, interpolation=cv2.INTER_AREA) for y in starts]
+    )
+
+
 def measure(n: int) -> dict[str, Any]:
-    """``{view: {"alpha", "contrast_percentiles", "spectrum"}}`` of every :data:`VIEWS`."""
+    """``{view: {"alpha", "contrast_percentiles", "spectrum"}}`` of every :data:`VIEWS` and
+    :data:`PHOTOGRAPHS`."""
     out = {}
-    for name, (env_id, kwargs) in tqdm(VIEWS.items(), desc="worlds"):
-        images = _panoramas(env_id, kwargs, n)
+    sources = list(VIEWS.items()) + list(PHOTOGRAPHS.items())
+    for name, source in tqdm(sources, desc="worlds"):
+        if isinstance(source, str):
+            images, where = _strips(source), {"photograph": f"sklearn sample image {source}"}
+        else:
+            images = _panoramas(source[0], source[1], n)
+            where = {"env_id": source[0], "env_kwargs": source[1]}
         spectrum = spectrum_slope(images)
         contrast = local_contrast(images)
         out[name] = {
-            "env_id": env_id,
-            "env_kwargs": kwargs,
+            **where,
             "shape": list(images.shape[1:3]),
             "alpha": round(spectrum.alpha, 3),
             "fitted_cycles_per_pixel": [round(spectrum.f_low, 4), spectrum.f_high],
@@ -88,7 +123,7 @@ def measure(n: int) -> dict[str, Any]:
             },
         }
         print(
-            f"{name:38s} alpha {spectrum.alpha:5.2f}, median local contrast "
+            f"{name:46s} alpha {spectrum.alpha:5.2f}, median local contrast "
             f"{out[name]['contrast_percentiles']['50']:.3f}"
         )
     return out
@@ -100,21 +135,27 @@ def draw(found: dict[str, Any], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
+    fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=100)
     for name, entry in found.items():
         f = np.asarray(entry["spectrum"]["cycles_per_pixel"])
         a = np.asarray(entry["spectrum"]["amplitude"])
-        ax.loglog(f, a / a[0], label=f"{name} (alpha {entry['alpha']:.2f})")
+        style = "--" if "photograph" in entry else "-"  # the reference photographs
+        ax.loglog(f, a / a[0], style, label=f"{name} (alpha {entry['alpha']:.2f})")
     f = np.geomspace(0.03, 0.35, 10)
     for alpha in NATURAL:
         ax.loglog(f, (f / f[0]) ** -alpha, "k:", lw=0.8)
     ax.text(
-        0.03, 0.04, "dotted: natural scenes, alpha 0.9 and 1.2", fontsize=8, transform=ax.transAxes
+        0.97,
+        0.95,
+        "dotted: natural scenes, alpha 0.9 and 1.2",
+        fontsize=8,
+        ha="right",
+        transform=ax.transAxes,
     )
     ax.set_xlabel("spatial frequency (cycles per pixel)")
     ax.set_ylabel("amplitude (relative to the lowest bin)")
     ax.set_title("Radially averaged amplitude spectra of grey panoramas")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=6.5, loc="lower left")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)

@@ -41,6 +41,27 @@ def _panorama(env, pose: tuple[float, float, float], hour: float) -> np.ndarray:
     return obs
 
 
+def save_strip(
+    rows: list[tuple[str, np.ndarray]],
+    path: Path,
+    prefix: str,
+    height: float,
+    interpolation: str = "nearest",
+) -> None:
+    """Panoramas one above the other, each titled ``prefix, title``, in a figure 10 inches wide
+    and ``height`` high; rows of other aspects get heights in proportion."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10.0, height), layout="constrained")
+    ratios = [image.shape[0] / image.shape[1] for _, image in rows]
+    axes = fig.subplots(len(rows), 1, gridspec_kw={"height_ratios": ratios})
+    for ax, (title, image) in zip(axes, rows, strict=True):
+        ax.imshow(image, interpolation=interpolation)
+        ax.set_title(f"{prefix}, {title}", fontsize=8, loc="left")
+        ax.set_axis_off()
+    fig.savefig(path, dpi=100)
+
+
 def main(args: Args) -> None:
     import gymnasium as gym
     from matplotlib.figure import Figure
@@ -60,16 +81,8 @@ def main(args: Args) -> None:
     rows.append(("mirror camera, unwarped, centre", _panorama(mirror, POSES[0][1], args.hour)))
     mirror.close()
 
-    fig = Figure(figsize=(10.0, 1.15 * len(rows)), layout="constrained")
-    for ax, (title, image) in zip(fig.subplots(len(rows), 1), rows, strict=True):
-        ax.imshow(image, interpolation="nearest")
-        ax.set_title(
-            f"paper_outdoor seed {args.world_seed}, {args.hour:g} h, {title}",
-            fontsize=8,
-            loc="left",
-        )
-        ax.set_axis_off()
-    fig.savefig(args.out / "outdoor_strip.png", dpi=100)
+    prefix = f"paper_outdoor seed {args.world_seed}, {args.hour:g} h"
+    save_strip(rows, args.out / "outdoor_strip.png", prefix, 1.15 * len(rows))
 
     circular = gym.make("sfa_gym/OmniRoverOutdoor-v0", camera="mirror_circular", **common)
     image = _panorama(circular, POSES[0][1], args.hour)

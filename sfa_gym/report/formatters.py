@@ -256,11 +256,24 @@ def nav_steps_table(files: Sequence[dict[str, Any]], options: dict[str, str]) ->
 
 
 def outdoor_cost_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
-    """Milliseconds per env step and the ratio to the first row (the static ``paper_sim``)."""
+    """Milliseconds per env step and each row's ratio to its reference: the static
+    ``paper_sim`` (``benchmarks/bench_outdoor.py``) or the flat env of its pair
+    (``benchmarks/bench_textures.py``)."""
     lines = _head(["env, 600 x 60", "ms per step", "ratio"])
     for data in files:
         for name, row in data["rows"].items():
             lines.append(_row([name, f"{row['ms_per_step']:.1f}", f"{row['ratio']:.2f}"]))
+    return "\n".join(lines)
+
+
+def textures_build_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """CPU seconds to build the outdoor world and to construct its env, flat and textured
+    (``benchmarks/bench_textures.py``)."""
+    lines = _head(["paper_outdoor", "build_world (CPU s)", "env construction (CPU s)"])
+    for data in files:
+        for name, row in data["build"].items():
+            cells = [f"{row['build_world_s']:.3f}", f"{row['env_construction_s']:.3f}"]
+            lines.append(_row([name, *cells]))
     return "\n".join(lines)
 
 

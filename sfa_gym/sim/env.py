@@ -1,4 +1,8 @@
-"""OmniRoverEnv: a skid-steer rover with an omnidirectional camera in a MuJoCo world."""
+"""OmniRoverEnv: a skid-steer rover with an omnidirectional camera in a MuJoCo world.
+
+The module is longer than most because the env's class docstring is its documentation (the
+Gymnasium convention: spaces, starting state, arguments, rendering in one place).
+"""
 
 from __future__ import annotations
 
@@ -31,6 +35,8 @@ from sfa_gym.sim.worlds.dynamics import (  # noqa: E402
     DynamicsSpec,
     resolve_dynamics,
 )
+from sfa_gym.sim.worlds.textures import TexturesSpec  # noqa: E402
+from sfa_gym.sim.worlds.texturing import with_textures  # noqa: E402
 
 _PANORAMA_PRESETS = {
     "paper_sim": PanoramaSpec.paper_sim,
@@ -164,6 +170,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
       for the default ``SensorSpec``, or a ``SensorSpec``; ``auto_exposure`` and
       ``sensor_noise`` (None) switch its two effects. Noise is drawn from a generator seeded
       from ``np_random`` on each reset (same seed, same noise).
+    * ``textures`` (None): generated surface textures (outdoor worlds): None keeps the world
+      spec's, False none, True the spec's or the default ``TexturesSpec``, or a
+      ``TexturesSpec`` (:mod:`sfa_gym.sim.worlds.textures`).
 
     The env also offers :attr:`dt` (seconds per step), :attr:`arena_bounds` and
     :meth:`grid_positions` for drivers, and ``model``, ``data`` (MuJoCo), ``mjcf`` (the model's
@@ -219,6 +228,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         sensor: bool | SensorSpec | None = None,
         auto_exposure: bool | None = None,
         sensor_noise: bool | None = None,
+        textures: bool | TexturesSpec | None = None,
     ) -> None:
         self.world = world
         self.world_seed = world_seed
@@ -257,7 +267,8 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         self.render_mode = render_mode
         self.render_size = render_size
 
-        self.world_spec = world if isinstance(world, WorldSpec) else load_world_spec(world)
+        spec = world if isinstance(world, WorldSpec) else load_world_spec(world)
+        self.world_spec = with_textures(spec, textures)
         self.dynamics = resolve_dynamics(
             self.world_spec.dynamics,
             dynamics,
@@ -268,7 +279,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         built = build_world(self.world_spec, world_seed, rover_mjcf(self.rover, panorama))
         self.mjcf = built.mjcf
         self.layout = built.layout
-        self.model = mujoco.MjModel.from_xml_string(self.mjcf)
+        self.model = mujoco.MjModel.from_xml_string(self.mjcf, built.assets)
         self.data = mujoco.MjData(self.model)
         self.view = TopDownView(self.model, render_size)
         timestep = float(self.model.opt.timestep)

@@ -3,9 +3,12 @@ accumulator of assets and geoms that draws from one random generator in a fixed 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from sfa_gym.sim.worlds.spec import SurfaceSpec, WorldSpec
+from sfa_gym.sim.worlds.texturing import Texturer
 
 __all__ = ["Builder", "num", "vec"]
 
@@ -29,10 +32,23 @@ class Builder:
         self.assets: list[str] = []
         self.body: list[str] = []
         self.n_materials = 0
+        # generated textures (a spec's ``textures`` block), drawn apart from ``rng``; None: off
+        self.textures: Texturer | None = None
+        self.colours: dict[str, tuple[float, float, float]] = {}  # material -> mean colour
+
+    def textured(self, surface: str, material: str, **extra: Any) -> str:
+        """``material``; with generated textures on, a material of the ``surface``'s texture
+        (:data:`~sfa_gym.sim.worlds.texturing.SURFACES`) in ``material``'s mean colour
+        instead (``extra``: see :meth:`Texturer.material`)."""
+        if self.textures is None:
+            return material
+        rgb = extra.pop("rgb", None) or self.colours[material]
+        return self.textures.material(surface, material, rgb, self.assets, **extra)
 
     def plain_material(self, rgb: tuple[float, float, float]) -> str:
         name = f"mat{self.n_materials}"
         self.n_materials += 1
+        self.colours[name] = rgb
         self.assets.append(
             f'<material name="{name}" rgba="{vec(*rgb, 1.0)}" specular="0" shininess="0"/>'
         )
@@ -47,6 +63,10 @@ class Builder:
         repeat = rng.uniform(*surface.repeat)
         name = f"mat{self.n_materials}"
         self.n_materials += 1
+        # the mean colour the texture shows: its two colours (one for "flat"), then the marks
+        mean = np.asarray(rgb1) if kind == "flat" else (np.asarray(rgb1) + np.asarray(rgb2)) / 2
+        mean = (1 - surface.marks) * mean + surface.marks * np.asarray(mark_rgb)
+        self.colours[name] = (float(mean[0]), float(mean[1]), float(mean[2]))
         marks = ""
         if surface.marks > 0:
             marks = f' mark="random" random="{num(surface.marks)}" markrgb="{vec(*mark_rgb)}"'

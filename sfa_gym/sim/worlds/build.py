@@ -5,7 +5,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -18,6 +18,7 @@ from sfa_gym.sim.worlds._mjcf import vec as _vec
 from sfa_gym.sim.worlds.dynamics import Lanes, mover_lanes, movers_mjcf
 from sfa_gym.sim.worlds.outdoor import build_outdoor, outer_reach
 from sfa_gym.sim.worlds.spec import ColourRange, WorldSpec
+from sfa_gym.sim.worlds.texturing import Texturer
 
 
 @dataclass(frozen=True)
@@ -100,11 +101,14 @@ class WorldLayout:
 class World:
     """A generated world: the full MJCF text and its layout; with dynamics, the lanes its
     movers keep to (:func:`~sfa_gym.sim.worlds.dynamics.mover_lanes`: the scene keeps them
-    free; pass them on to :class:`~sfa_gym.sim.worlds.dynamics.Dynamics`)."""
+    free; pass them on to :class:`~sfa_gym.sim.worlds.dynamics.Dynamics`); with generated
+    textures, the files the MJCF names (``{file name: PNG bytes}``: compile with
+    ``mujoco.MjModel.from_xml_string(world.mjcf, world.assets)``)."""
 
     mjcf: str
     layout: WorldLayout
     lanes: Lanes | None = None
+    assets: dict[str, bytes] = field(default_factory=dict, hash=False)
 
 
 def _wall_panels(b: _Builder) -> None:
@@ -148,7 +152,7 @@ def _boundary(b: _Builder) -> None:
         return
     hx, hy, w = arena.size[0] / 2, arena.size[1] / 2, arena.border_width
     if arena.boundary == "curbs":
-        mat = b.plain_material(_CURB_RGB)
+        mat = b.textured("concrete", b.plain_material(_CURB_RGB))
         # the x curbs are long enough to close the corners
         sides = [(hx + w, w / 2, 0.0, hy + w / 2), (w / 2, hy, hx + w / 2, 0.0)]
         z, half_z, contact = arena.curb_height / 2, arena.curb_height / 2, ""
@@ -439,6 +443,8 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
     robot = robot or MJCFParts()
     rng = np.random.default_rng(int(world_seed))
     b = _Builder(spec, rng)
+    if spec.textures is not None:
+        b.textures = Texturer(spec.textures, int(world_seed))
     arena = spec.arena
     hx, hy = arena.size[0] / 2, arena.size[1] / 2
 
@@ -447,8 +453,8 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
         f'<texture name="sky" type="skybox" builtin="gradient" rgb1="{_vec(*zenith)}" '
         f'rgb2="{_vec(*horizon)}" width="256" height="1536"/>'
     )
-    ground = b.surface_material(spec.ground)
-    floor = b.surface_material(spec.floor)
+    ground = b.textured("grass", b.surface_material(spec.ground))
+    floor = b.textured("asphalt", b.surface_material(spec.floor))
     reach = max(hx, hy) + arena.wall_thickness + spec.landmarks.clearance + spec.landmarks.depth
     if spec.outdoor is not None:
         reach = max(reach, outer_reach(spec.outdoor, arena.size))
@@ -534,4 +540,5 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
         landmarks=tuple(landmarks),
         walls=_walls(spec),
     )
-    return World(mjcf=mjcf, layout=layout, lanes=lanes)
+    assets = {} if b.textures is None else dict(b.textures.files)
+    return World(mjcf=mjcf, layout=layout, lanes=lanes, assets=assets)

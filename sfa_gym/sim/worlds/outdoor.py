@@ -149,7 +149,7 @@ class _Scene:
 
 def _pavement(s: _Scene) -> None:
     pw = s.spec.pavement_width
-    mat = s.b.surface_material(s.spec.pavement)
+    mat = s.b.textured("paving", s.b.surface_material(s.spec.pavement))
     # half a millimetre under the asphalt tile and above the grass plane: no depth fighting
     s.geoms.append(
         f'<geom name="pavement" type="box" pos="0 0 -0.0045" '
@@ -180,7 +180,9 @@ def _window_material(
         f'<material name="{name}" texture="tex_{name}" texrepeat="{columns} {storeys}" '
         f'texuniform="false" specular="0" shininess="0"/>'
     )
-    return name
+    bay = (s.spec.buildings.window_pitch, s.spec.buildings.storey_height)
+    bays = (columns, storeys)  # one texture per face: every window its own
+    return b.textured("facade", name, rgb=facade, glass=glass, bays=bays, bay_m=bay, repeat=(1, 1))
 
 
 def _buildings(s: _Scene, car_side: _Side, car_band: float, lanes: Lanes | None) -> None:
@@ -349,7 +351,7 @@ def _round_items(s: _Scene, kind: str, spec: ItemsSpec, centres: list[tuple[floa
             continue
         x, y = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
         name = s.name(kind)
-        crown = s.material(colour)
+        crown = s.b.textured("bush" if kind == "bush" else "foliage", s.material(colour))
         if kind == "bush":
             s.geoms.append(
                 f'<geom name="{name}" type="ellipsoid" pos="{_vec(x, y, height * 0.45)}" '
@@ -363,7 +365,7 @@ def _round_items(s: _Scene, kind: str, spec: ItemsSpec, centres: list[tuple[floa
                 # a street tree: its crown (which starts a tenth of its height below the
                 # trunk's top) clears the heads of the people, bikes and cars beneath
                 trunk_h = max(trunk_h, (_CROWN_CLEAR + 0.1 * height) / 1.1)
-            bark = s.material(_BARK.draw(rng))
+            bark = s.b.textured("bark", s.material(_BARK.draw(rng)))
             s.geoms.append(
                 f'<geom name="{name}" type="cylinder" pos="{_vec(x, y, trunk_h / 2)}" '
                 f'size="{_vec(max(0.06, width * 0.05), trunk_h / 2)}" material="{bark}" '
@@ -432,10 +434,9 @@ def _road(s: _Scene, lanes: Lanes) -> None:
 
     # the cycle path sits on the asphalt and the paint on both, a millimetre apart: no depth
     # fighting
-    s.geoms.append(_box_geom("road", rect, -0.009, 0.0005, s.material(_ROAD)))
-    s.geoms.append(
-        _box_geom("cycle_path", band(near, cycle_edge), -0.009, 0.0015, s.material(_CYCLE_PATH))
-    )
+    road, cycle_path = (s.b.textured("asphalt", s.material(c)) for c in (_ROAD, _CYCLE_PATH))
+    s.geoms.append(_box_geom("road", rect, -0.009, 0.0005, road))
+    s.geoms.append(_box_geom("cycle_path", band(near, cycle_edge), -0.009, 0.0015, cycle_path))
     lines = [cycle_edge] + [
         (a + b) / 2 for (a, _), (b, _) in zip(lanes.cars, lanes.cars[1:], strict=False)
     ]

@@ -44,6 +44,7 @@ import numpy as np
 
 from sfa_gym.sim.worlds.data import envs_dir
 from sfa_gym.sim.worlds.dynamics import DynamicsSpec
+from sfa_gym.sim.worlds.textures import TexturesSpec
 
 TEXTURE_KINDS = ("checker", "gradient", "flat")
 LANDMARK_KINDS = ("tree", "pillar", "box")
@@ -442,7 +443,9 @@ class WorldSpec:
     """Everything that defines a family of worlds; one world seed picks one member.
 
     Load one with :func:`load_world_spec`. Lengths in metres, angles in degrees. The
-    ``name`` is any text without control characters (it is escaped in the MJCF).
+    ``name`` is any text without control characters (it is escaped in the MJCF). A
+    ``textures`` block (outdoor worlds only; off by default) textures the surfaces with
+    generated images (:mod:`sfa_gym.sim.worlds.textures`).
     """
 
     name: str
@@ -458,8 +461,14 @@ class WorldSpec:
     sky: SkySpec = SkySpec()
     outdoor: OutdoorSpec | None = None
     dynamics: DynamicsSpec | None = None
+    textures: TexturesSpec | None = None
 
     def __post_init__(self) -> None:
+        if self.textures is not None and self.outdoor is None:
+            raise ValueError(
+                f"world {self.name!r}: textures need an outdoor block (the generated surfaces "
+                "are the outdoor world's: asphalt, grass, paving, facades, trees, bushes)"
+            )
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"world name must be a non-empty string, got {self.name!r}")
         # XML cannot carry control characters, even escaped
