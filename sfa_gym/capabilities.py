@@ -50,8 +50,8 @@ class Capabilities:
     """a navigation controller that acts on panoramas: the episode runner renders the current
     panorama at every step and the goal's once at the start of the episode (real renders, not
     the feature field) and adds them to ``obs`` as ``"panorama"`` and ``"goal_panorama"``
-    (:func:`~sfa_gym.navigation.evaluate.run_episode`); rendering costs about three times the
-    physics of a step (docs/notes/2026-11-27-homing.md)"""
+    (:func:`~sfa_gym.navigation.evaluate.run_episode`); an episode's steps then take about ten
+    times as long as on the field (docs/notes/2026-11-27-homing.md)"""
 
 
 # The method each capability promises, checked when the capabilities are read.

@@ -86,8 +86,10 @@ themselves declares it in the same one way, ``capabilities = Capabilities(panora
 the episode runner then renders the camera's panorama at every step (MuJoCo, not the feature
 field) and ``obs`` also holds ``"panorama"`` and ``"goal_panorama"`` (``(H, W, 3)`` uint8, the
 goal's rendered once at the goal pose at the start of the episode), with no pose; columns are
-fixed compass azimuths, whatever the rover's heading. Rendering makes an episode several times
-slower (docs/notes/2026-11-27-homing.md).
+fixed directions of the rover (column ``c`` looks at ``heading + 2*pi*c/W``), so a controller
+finds the heading difference to the goal panorama itself (a visual compass:
+:mod:`sfa_gym.navigation.homing`). Rendering makes the steps about ten times slower
+(docs/notes/2026-11-27-homing.md).
 
 A file that does not follow this contract raises :class:`PluginError`, naming the file and what
 is missing.

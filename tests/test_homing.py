@@ -23,7 +23,7 @@ from sfa_gym.plugins import load_controller_plugin
 
 ROOT = Path(__file__).resolve().parents[1]
 CONTROLLERS = ROOT / "baselines" / "controllers"
-HOMING = ("image_difference", "average_landmark_vector")
+HOMING = ("image_difference", "average_landmark_vector", "min_warping")
 ENV_ID = "sfa_gym/OmniRoverNav-v0"
 BOUNDS = (-3.0, 3.0, -3.0, 3.0)  # the open arena's drivable area
 
@@ -205,6 +205,8 @@ ROVER = Rover(v_max=0.4, w_max=1.0, dt=0.1, range_angles=(0.0,))
         ("average_landmark_vector", {"band": [0.6, 0.5]}, r"band must be \(from, to\)"),
         ("average_landmark_vector", {"dark": 1.5}, r"dark must be in \(0, 1\), got 1.5"),
         ("average_landmark_vector", {"stop_steps": 0}, "stop_steps must be >= 1, got 0"),
+        ("min_warping", {"directions": 0}, "directions must be >= 1, got 0"),
+        ("min_warping", {"stop_fraction": 1.0}, r"stop_fraction must be in \[0, 1\), got 1.0"),
     ],
 )
 def test_bad_arguments_are_refused_by_name(name, args, message):

@@ -17,11 +17,9 @@ panoramas (``Capabilities(panoramas=True)``), never on features or poses.
   pixel, and each run of adjacent columns holding one is a landmark, seen at the run's centre.
   One unit vector per landmark, as in Lambrinos et al.: weighting by pixels would let a near
   landmark's growing size outweigh its bearing, and the home vector points the wrong way.
-* **Compass.** The camera's columns turn with the rover (column ``c`` looks at
-  ``heading + 2*pi*c/W``) and the goal panorama was taken at another heading. The heading
-  difference comes from the panoramas themselves, a visual compass: the column shift at which
-  they differ least (:func:`sfa_gym.navigation.homing.rotational_difference`). The goal's ALV is
-  turned by it into the rover's frame.
+* **Compass.** The goal's ALV is turned into the rover's frame by the visual compass of
+  :mod:`sfa_gym.navigation.homing` (the camera's columns turn with the rover, and the goal
+  panorama was taken at another heading).
 * **Driving.** The rover turns towards the home vector and drives at ``speed`` times the cosine
   of the heading error (none while it points more than 90 degrees away); it stops once the home
   vector's length has stayed below ``stop_length`` for ``stop_steps`` steps in a row (near the
