@@ -1,12 +1,13 @@
-"""What a feature method can do beyond ``fit`` and ``transform``, declared once and read by one
-function.
+"""What a feature method or a navigation controller can do or needs beyond the plug-in contract,
+declared once and read by one function.
 
 A method (or any feature model the library transforms with: a hierarchical SFA network, an
-:class:`~sfa_gym.features.EmbeddedFeatures`) declares its optional capabilities in a class
-attribute ``capabilities``, a :class:`Capabilities`; a method whose capabilities depend on its
-parameters (the baselines' ``regressor``) makes ``capabilities`` a property. The library asks
-:func:`get_capabilities` and never probes for methods with ``hasattr``: an undeclared method is
-not used, and a declared one that is missing is an error naming the method.
+:class:`~sfa_gym.features.EmbeddedFeatures`) or a controller declares its optional capabilities
+in a class attribute ``capabilities``, a :class:`Capabilities`; a plug-in whose capabilities
+depend on its parameters (the baselines' ``regressor``) makes ``capabilities`` a property. The
+library asks :func:`get_capabilities` and never probes for methods with ``hasattr``: an
+undeclared method is not used, and a declared one that is missing is an error naming the
+method.
 
 These are estimator tags in the sense of scikit-learn's ``__sklearn_tags__``, kept in an
 attribute of their own: scikit-learn's ``Tags`` has a fixed set of fields, none of these, and a
@@ -24,7 +25,7 @@ __all__ = ["Capabilities", "get_capabilities"]
 
 @dataclass(frozen=True)
 class Capabilities:
-    """The optional capabilities of a feature method (all off by default)."""
+    """The optional capabilities of a feature method or a controller (all off by default)."""
 
     fit_rotations: bool = False
     """has ``fit_rotations(panoramas (L, H, W, 3)) -> self``: fits on every simulated rotation of
@@ -45,6 +46,12 @@ class Capabilities:
     :func:`~sfa_gym.localization.regression.make_regressor`)"""
     extra_regressors: tuple[str, ...] = ()
     """regressions reported besides ``linear`` and ``regressor`` by ``sfa-gym localize``"""
+    panoramas: bool = False
+    """a navigation controller that acts on panoramas: the episode runner renders the current
+    panorama at every step and the goal's once at the start of the episode (real renders, not
+    the feature field) and adds them to ``obs`` as ``"panorama"`` and ``"goal_panorama"``
+    (:func:`~sfa_gym.navigation.evaluate.run_episode`); an episode's steps then take about ten
+    times as long as on the field (docs/notes/2026-11-27-homing.md)"""
 
 
 # The method each capability promises, checked when the capabilities are read.

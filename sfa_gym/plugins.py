@@ -12,7 +12,8 @@ a worker process of its own (:mod:`sfa_gym.sandbox`) and returns a proxy
 :class:`~sfa_gym.sandbox.IsolatedController`):
 
 - the worker is sent only what the protocol gives a plug-in: views and panoramas without their
-  poses; for a controller its observation (features) and the rover's own sensors. The env,
+  poses; for a controller its observation (features, and panoramas for one that asks for
+  them) and the rover's own sensors. The env,
   poses and the evaluator's objects never enter its address space (``sys._getframe`` and
   ``gc`` find only the worker's own objects), and scoring happens in the evaluator;
 - what comes back is JSON-type values and arrays of numbers only, never unpickled objects;
@@ -69,6 +70,7 @@ when a parameter decides it), a :class:`~sfa_gym.capabilities.Capabilities` with
 - ``rotation_invariant``: column statistics; each full-width panorama is transformed once;
 - ``regressor``: the regression the features are paired with (default ``"linear"``);
 - ``extra_regressors``: regressions ``sfa-gym localize`` reports besides those two.
+- ``panoramas`` (controllers): acts on rendered panoramas (below).
 
 The library reads them with :func:`~sfa_gym.capabilities.get_capabilities` and nothing else; a
 method that declares none gets the defaults (no shortcut, linear regression).
@@ -79,7 +81,15 @@ controller for a :class:`~sfa_gym.navigation.sensors.Rover` and the cost weights
 ``name: str``, ``reset(obs, info)`` at the start of an episode and ``act(obs, info) -> (3,)
 float32`` (forward speed m/s, yaw rate rad/s, stop if > 0) every step. ``obs`` holds
 ``"features"`` and ``"goal_features"``; ``info`` only the rover's own sensors
-(:class:`~sfa_gym.navigation.sensors.SensorsOnly`).
+(:class:`~sfa_gym.navigation.sensors.SensorsOnly`). A controller that acts on the images
+themselves declares it in the same one way, ``capabilities = Capabilities(panoramas=True)``:
+the episode runner then renders the camera's panorama at every step (MuJoCo, not the feature
+field) and ``obs`` also holds ``"panorama"`` and ``"goal_panorama"`` (``(H, W, 3)`` uint8, the
+goal's rendered once at the goal pose at the start of the episode), with no pose; columns are
+fixed directions of the rover (column ``c`` looks at ``heading + 2*pi*c/W``), so a controller
+finds the heading difference to the goal panorama itself (a visual compass:
+:mod:`sfa_gym.navigation.homing`). Rendering makes the steps about ten times slower
+(docs/notes/2026-11-27-homing.md).
 
 A file that does not follow this contract raises :class:`PluginError`, naming the file and what
 is missing.

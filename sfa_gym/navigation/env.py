@@ -191,6 +191,7 @@ class OmniRoverNavEnv(OmniRoverEnv):
         self.odometry = WheelOdometry(self.rover.wheel_radius, self.rover.effective_track)
         self._goal: tuple[float, float, float] | None = None  # drawn by reset
         self._path: list[tuple[float, float]] = []  # the rover's positions since reset
+        self._scratch: mujoco.MjData | None = None  # renders at other poses (render_panorama)
 
         m = self.model
         self._wheel_qpos = [int(m.joint(f"rover_wheel_{w}").qposadr[0]) for w in WHEELS]
@@ -343,11 +344,23 @@ class OmniRoverNavEnv(OmniRoverEnv):
             "goal_features": self._goal_features.copy(),
         }
 
-    def render_panorama(self) -> NDArray[np.uint8]:
-        """The camera's panorama at the current pose, ``(H, W, 3)`` uint8, rendered now: also
-        with a ``feature_field``, whose observations hold no pixels (for recordings)."""
+    def render_panorama(self, pose: Any = None) -> NDArray[np.uint8]:
+        """The camera's panorama, ``(H, W, 3)`` uint8, rendered now: also with a
+        ``feature_field``, whose observations hold no pixels (for recordings and for controllers
+        that act on panoramas).
+
+        Args:
+            pose: None for the rover's current pose; else ``(x, y, yaw)``: the rover at rest
+                there, placed in a scratch copy of the scene (the episode's state is untouched;
+                the same pixels as the env's own render at that pose, e.g. its goal panorama).
+        """
         gl.check_usable()
-        return self._camera.render(self.data)
+        if pose is None:
+            return self._camera.render(self.data)
+        if self._scratch is None:
+            self._scratch = mujoco.MjData(self.model)
+        self._place(*self._pose_numbers("pose", pose), data=self._scratch)
+        return self._camera.render(self._scratch)
 
     def _nav_info(self, x: float, y: float, yaw: float) -> dict[str, Any]:
         """The info dict at the current pose ``(x, y, yaw)`` (read once per step by the caller)."""

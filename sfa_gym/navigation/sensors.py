@@ -54,8 +54,11 @@ class SensorsOnly:
     """A controller that sees of ``info`` only the rover's own sensors (:data:`ROVER_SENSORS`)."""
 
     def __init__(self, controller: Controller) -> None:
+        from sfa_gym.capabilities import get_capabilities
+
         self.controller = controller
         self.name = controller.name
+        self.capabilities = get_capabilities(controller)  # what the episode runner reads
 
     @staticmethod
     def sensors(info: Mapping[str, Any]) -> dict[str, Any]:

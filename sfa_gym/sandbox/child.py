@@ -99,7 +99,7 @@ def _load(request: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
         weights = np.asarray(request["weights"], dtype=np.float64)
         made = plugin.make(rover, weights, **arguments)
         plugin._check_made(made, ("reset", "act"), "act(obs, info)")
-        about = {}
+        about = {"capabilities": _capabilities(made)}  # e.g. whether it acts on panoramas
     about.update(name=made.name, arguments=arguments, params=_params(made))
     return made, about
 

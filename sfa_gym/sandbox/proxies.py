@@ -2,7 +2,8 @@
 plug-in's worker process (:class:`~sfa_gym.sandbox.process.Worker`), each within its time limit.
 
 What crosses to the worker is what the protocol gives a plug-in: views and panoramas (never
-their poses), and for a controller its observation (features) and the rover's own sensors
+their poses), and for a controller its observation (features, and the current and goal panorama
+for a controller that declares it acts on panoramas) and the rover's own sensors
 (:data:`~sfa_gym.navigation.sensors.ROVER_SENSORS`). What comes back is checked here: numbers
 and arrays of numbers where features or actions are expected.
 """
@@ -154,6 +155,17 @@ class _Isolated:
     def _call(self, call: str, limit: float, *args: Any) -> Any:
         return self._worker.call({"call": call, "args": list(args)}, limit, f"{call}()")
 
+    def _read_capabilities(self) -> None:
+        """``capabilities`` from what the worker reported of the plug-in (closes the worker and
+        raises a PluginError when that is unreadable)."""
+        try:
+            found = dict(self._about["capabilities"])
+            found["extra_regressors"] = tuple(found.get("extra_regressors", ()))
+            self.capabilities = Capabilities(**found)
+        except (TypeError, ValueError, KeyError) as error:
+            self.close()
+            raise PluginError(f"{self.path} reported unreadable capabilities: {error}") from None
+
     def close(self) -> None:
         """Stop the worker (the proxy is unusable afterwards)."""
         self._worker.close()
@@ -226,10 +238,8 @@ class IsolatedMethod(_Isolated):
         from sfa_gym.rotation import Rotation
 
         super().__init__(source, args, limits, hidden)
+        self._read_capabilities()
         try:
-            found = dict(self._about["capabilities"])
-            found["extra_regressors"] = tuple(found.get("extra_regressors", ()))
-            self.capabilities = Capabilities(**found)
             rotation = self._about.get("rotation")
             if rotation is not None:
                 self.rotation = Rotation(**rotation)
@@ -238,7 +248,7 @@ class IsolatedMethod(_Isolated):
             protocols train their own, with their ``--sfa.*`` settings)"""
         except (TypeError, ValueError, KeyError) as error:
             self.close()
-            raise PluginError(f"{self.path} reported unreadable capabilities: {error}") from None
+            raise PluginError(f"{self.path} reported an unreadable rotation: {error}") from None
 
     def _fitted(self, call: str, *args: Any) -> IsolatedMethod:
         found = self._call(call, self.limits.fit, *args)
@@ -274,7 +284,9 @@ class IsolatedMethod(_Isolated):
 
 class IsolatedController(_Isolated):
     """A navigation controller plug-in running in its own worker process: ``reset(obs, info)``
-    and ``act(obs, info)`` send the observation and only the rover's own sensors of ``info``.
+    and ``act(obs, info)`` send the observation (features; with the capability ``panoramas``
+    also the current and the goal panorama, as arrays) and only the rover's own sensors of
+    ``info``; ``capabilities`` is what the plug-in declared.
 
     Args:
         source: a built-in name or a controller plug-in file.
@@ -297,6 +309,7 @@ class IsolatedController(_Isolated):
         rover_fields = dataclasses.asdict(rover)
         weights = np.asarray(weights, dtype=np.float64)
         super().__init__(source, args, limits, hidden, rover=rover_fields, weights=weights)
+        self._read_capabilities()
 
     @staticmethod
     def _seen(obs: Mapping[str, Any], info: Mapping[str, Any]) -> list[Any]:

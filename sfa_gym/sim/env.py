@@ -385,8 +385,8 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         x, y = candidates[free[0] if free.size else -1]
         return float(x), float(y)
 
-    def _place(self, x: float, y: float, yaw: float) -> None:
-        m, d = self.model, self.data
+    def _place(self, x: float, y: float, yaw: float, data: mujoco.MjData | None = None) -> None:
+        m, d = self.model, self.data if data is None else data
         mujoco.mj_resetData(m, d)
         q = self._qpos0
         d.qpos[q : q + 3] = (x, y, self._rest_z)
