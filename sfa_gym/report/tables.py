@@ -72,6 +72,7 @@ GENERATORS: dict[str, Generator] = {
     "outdoor-cost": formatters.outdoor_cost_table,
     "image-statistics": formatters.image_statistics_table,
     "textures-build": formatters.textures_build_table,
+    "paper-pipeline": formatters.paper_pipeline_table,
     "sfa-engine": formatters.sfa_engine_table,
     "leaderboard-timings": formatters.leaderboard_timings_table,
     "equivariance": formatters.equivariance_table,
@@ -82,8 +83,8 @@ navigation protocol's ``results.json``), ``board``, ``board-parts`` and ``board-
 (the leaderboard's reference board), ``nav-sets`` (navigation studies' episode sets),
 ``quick-vs-full`` (the quick board's ranks against the full one's), ``descent-bound``,
 ``nav-steps``, ``outdoor-cost`` (also the textures' cost per step), ``image-statistics``,
-``textures-build``, ``sfa-engine``, ``leaderboard-timings`` and ``equivariance``
-(:mod:`sfa_gym.report.formatters`)."""
+``textures-build``, ``paper-pipeline``, ``sfa-engine``, ``leaderboard-timings`` and
+``equivariance`` (:mod:`sfa_gym.report.formatters`)."""
 
 _BLOCK = re.compile(
     r"<!-- generated: (?P<spec>[^\n]*?) -->\n(?P<body>.*?)<!-- end generated -->", re.DOTALL

@@ -1,0 +1,50 @@
+"""The paper-pipeline study's summary and its generated table (the runs themselves are the
+study's: ``python -m studies.paper_pipeline``)."""
+
+from __future__ import annotations
+
+import pytest
+
+from sfa_gym.report.formatters import paper_pipeline_table
+from studies.paper_pipeline import ROWS, Args, main, summarise
+
+
+def test_summary_is_the_mean_over_worlds_with_a_t_interval_from_three_worlds():
+    runs = [
+        {"linear": [2.0, 3.0], "quadratic": [1.0, 1.0]},
+        {"linear": [3.0, 3.0], "quadratic": [1.0, 2.0]},
+        {"linear": [4.0, 3.0], "quadratic": [1.0, 3.0]},
+    ]
+    found = summarise(runs)
+    x, y = found["linear"]
+    assert x["mean"] == 3.0 and y["mean"] == 3.0
+    # 3.0 +- t(0.975, 2) * 1 / sqrt(3) = 3.0 +- 2.484
+    assert x["interval"] == pytest.approx([0.5159, 5.4841], abs=1e-4)
+    assert y["interval"] == [3.0, 3.0]  # equal values: the point interval
+    assert summarise(runs[:2])["quadratic"][1] == {"mean": 1.5, "interval": None}
+
+
+def test_table_rows_come_from_the_file():
+    entry = {"mean": 2.5, "interval": [2.0, 3.0]}
+    data = {
+        "paper_mae_percent": [1.83, 1.68],
+        "rows": {
+            "reference": {
+                "change": "what changes",
+                "linear": [entry, {"mean": 3.25, "interval": None}],
+                "quadratic": [entry, entry],
+            }
+        },
+    }
+    lines = paper_pipeline_table([data], {}).splitlines()
+    assert lines[2] == "| paper | Metka et al. 2013 | 1.83 | 1.68 | - | - |"
+    assert lines[3] == (
+        "| `reference` | what changes | 2.50 [2.00, 3.00] | 3.25 | 2.50 [2.00, 3.00] "
+        "| 2.50 [2.00, 3.00] |"
+    )
+
+
+def test_unknown_rows_are_refused_by_name(tmp_path):
+    with pytest.raises(SystemExit, match="unknown rows \\['nope'\\]"):
+        main(Args(rows=("nope",), json=tmp_path / "x.json"))
+    assert "reference" in ROWS
