@@ -72,9 +72,10 @@ class NetworkArgs:
     """pairs of neighbours in time per step (twice as many views)"""
     learning_rate: float = 1e-3
     """Adam's step size"""
-    row_pool: int = 2
-    """rows averaged into one before the convolutions (the height only: rotation invariance
-    needs every column)"""
+    rows: int = 20
+    """the views are averaged down to about this many rows (by a whole factor, height // rows,
+    at least 1) before the convolutions: 40 -> 20 on the simulator's panoramas, 60 -> 20 on the
+    outdoor ones; never the width, whose every column rotation invariance needs"""
     channels: tuple[int, ...] = (16, 32, 32)
     """output channels of the convolutions (3 x 3, each halving the height, circular along the
     width)"""
@@ -96,7 +97,7 @@ class NetworkArgs:
         for name in (
             "output_dim",
             "batch_size",
-            "row_pool",
+            "rows",
             "n_frequencies",
             "hidden",
             "n_threads",
@@ -139,14 +140,14 @@ class CircularEncoder(nn.Module):
 
     Args:
         height, width: the views' size.
-        row_pool, channels, n_frequencies, hidden, output_dim: see :class:`NetworkArgs`.
+        rows, channels, n_frequencies, hidden, output_dim: see :class:`NetworkArgs`.
     """
 
     def __init__(
         self,
         height: int,
         width: int,
-        row_pool: int,
+        rows: int,
         channels: tuple[int, ...],
         n_frequencies: int,
         hidden: int,
@@ -158,16 +159,14 @@ class CircularEncoder(nn.Module):
                 f"n_frequencies must be at most {width // 2 + 1} (W // 2 + 1 for views "
                 f"{width} columns wide), got {n_frequencies}"
             )
-        if row_pool > height:
-            raise ValueError(f"row_pool must be at most the views' height {height}, got {row_pool}")
         sizes = (3, *channels)
         # zeros pad the height; forward pads the width circularly
         self.convolutions = nn.ModuleList(
             nn.Conv2d(c_in, c_out, kernel_size=3, stride=(2, 1), padding=(1, 0))
             for c_in, c_out in zip(sizes[:-1], sizes[1:], strict=True)
         )
-        self.row_pool = row_pool
-        rows = height // row_pool
+        self.row_pool = max(1, height // rows)
+        rows = height // self.row_pool
         for _ in channels:
             rows = (rows - 1) // 2 + 1  # kernel 3, padding 1, stride 2
         self.n_frequencies = n_frequencies
@@ -222,7 +221,7 @@ class TemporalNetworkMethod(TransformerMixin, BaseEstimator):
         steps: int = NetworkArgs.steps,
         batch_size: int = NetworkArgs.batch_size,
         learning_rate: float = NetworkArgs.learning_rate,
-        row_pool: int = NetworkArgs.row_pool,
+        rows: int = NetworkArgs.rows,
         channels: tuple[int, ...] = NetworkArgs.channels,
         n_frequencies: int = NetworkArgs.n_frequencies,
         hidden: int = NetworkArgs.hidden,
@@ -235,7 +234,7 @@ class TemporalNetworkMethod(TransformerMixin, BaseEstimator):
         self.steps = steps
         self.batch_size = batch_size
         self.learning_rate = learning_rate
-        self.row_pool = row_pool
+        self.rows = rows
         self.channels = channels
         self.n_frequencies = n_frequencies
         self.hidden = hidden
@@ -285,7 +284,7 @@ class TemporalNetworkMethod(TransformerMixin, BaseEstimator):
             encoder = CircularEncoder(
                 height,
                 width,
-                settings.row_pool,
+                settings.rows,
                 tuple(settings.channels),
                 settings.n_frequencies,
                 settings.hidden,

@@ -26,7 +26,7 @@ TINY = {
     "output_dim": 4,
     "steps": 60,
     "batch_size": 16,
-    "row_pool": 1,
+    "rows": 10,
     "channels": (8, 8),
     "n_frequencies": 3,
     "hidden": 16,
@@ -133,6 +133,7 @@ def test_sequences_change_what_is_learned(run):
     [
         ({"steps": -1}, r"steps must be an int >= 0, got -1"),
         ({"batch_size": 0}, r"batch_size must be a positive int, got 0"),
+        ({"rows": 0}, r"rows must be a positive int, got 0"),
         ({"learning_rate": 0.0}, r"learning_rate must be a positive number, got 0\.0"),
         ({"channels": ()}, r"channels must be a non-empty tuple of ints"),
         ({"channels": (8, -2)}, r"each of channels must be a positive int, got -2"),
@@ -149,8 +150,6 @@ def test_bad_arguments_are_refused_naming_the_value(changes, message):
 def test_bad_input_is_refused_naming_what_was_expected(fitted, run):
     with pytest.raises(ValueError, match=r"n_frequencies must be at most 21"):
         _method("deep_sfa", n_frequencies=22).fit(run)
-    with pytest.raises(ValueError, match=r"row_pool must be at most the views' height 10"):
-        _method("contrastive", row_pool=11).fit(run)
     with pytest.raises(ValueError, match=r"needs more than .* pairs"):
         _method("deep_sfa", output_dim=8).fit(run[:4])
     with pytest.raises(TypeError, match=r"must be uint8"):
