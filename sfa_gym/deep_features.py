@@ -273,11 +273,13 @@ class TemporalNetworkMethod(TransformerMixin, BaseEstimator):
         views = check_views(views, min_views=2)
         pairs = neighbour_pairs(len(views), sequence_ids)
         per_step = min(settings.batch_size, len(pairs))
-        if per_step < 2 or 2 * per_step <= settings.output_dim:
+        # a step's 2 * per_step views must span the outputs (whitening) and hold a negative
+        needed = max(2, settings.output_dim // 2 + 1)
+        if per_step < needed:
             raise ValueError(
-                f"{self.name} needs more than max(2, output_dim / 2) = "
-                f"{max(2, settings.output_dim // 2)} pairs of neighbours in time per step; "
-                f"{len(views)} views give {len(pairs)} pairs (batch_size {settings.batch_size})"
+                f"{self.name} needs at least {needed} pairs of neighbours in time per step "
+                f"(2 and more than output_dim / 2); {len(views)} views give {len(pairs)} pairs "
+                f"and batch_size is {settings.batch_size}"
             )
         _, height, width, _ = views.shape
         with seeded_torch(settings.seed, settings.n_threads):
