@@ -7,6 +7,7 @@ evaluator finds the file, the worker process imports it (:mod:`sfa_gym.plugins`,
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Literal
@@ -19,6 +20,7 @@ __all__ = [
     "PluginError",
     "default_plugin_folder",
     "list_plugin_files",
+    "missing_extra",
     "resolve_plugin",
 ]
 
@@ -98,3 +100,11 @@ def resolve_plugin(source: str | os.PathLike[str], kind: Kind = "method") -> Pat
     if path.suffix != ".py":
         raise ValueError(f"a {what} file must be a .py file, got {path}")
     return path
+
+
+def missing_extra(error: BaseException) -> str | None:
+    """The optional dependencies (``"deep"``) whose absence made a plug-in file fail to import,
+    read from the hint ``pip install 'sfa-gym[EXTRA]'`` its error gives (the built-in files that
+    need an extra say so that way); None for any other failure."""
+    found = re.search(r"pip install 'sfa-gym\[(\w+)\]'", str(error))
+    return None if found is None else found.group(1)

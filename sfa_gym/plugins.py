@@ -121,6 +121,7 @@ from sfa_gym.plugin_files import (
     PluginError,
     default_plugin_folder,
     list_plugin_files,
+    missing_extra,
     resolve_plugin,
 )
 
@@ -484,7 +485,8 @@ def load_plugins(
     Each method runs in a worker process of its own, as on the leaderboard (the trust model
     above; :data:`~sfa_gym.sandbox.IN_PROCESS` imports them here instead): close them with
     :func:`close_plugins`. Hierarchical SFA (the built-in ``sfa.py``) is left out: the
-    protocols train it themselves, with their own ``--sfa.*`` settings.
+    protocols train it themselves, with their own ``--sfa.*`` settings. So is, with a line on
+    stderr, a file that needs an extra not installed (the deep methods without torch).
 
     Args:
         folder: the folder the user named, or None.
@@ -513,7 +515,14 @@ def load_plugins(
         return methods
     try:
         for path in list_plugin_files(folder):
-            method = load_method(path, isolated=plugins_isolated(), hidden=hidden)
+            try:
+                method = load_method(path, isolated=plugins_isolated(), hidden=hidden)
+            except PluginError as error:
+                extra = missing_extra(error)
+                if extra is None:
+                    raise
+                print(f"sfa-gym: {path.name} left out: it needs sfa-gym[{extra}]", file=sys.stderr)
+                continue
             if _is_hierarchical_sfa(method):
                 _close(method)
                 continue

@@ -42,7 +42,7 @@ def test_baselines_import_only_the_library_not_each_other():
                 assert top != "baselines" and top not in stems, f"{path.name} imports {name}"
 
 
-BUILT_IN = ["band_means", "fft_magnitude", "raw_pixels", "pca", "sfa"]
+BUILT_IN = ["band_means", "fft_magnitude", "raw_pixels", "pca", "sfa", "deep_sfa", "contrastive"]
 
 
 @pytest.mark.parametrize("name", BUILT_IN)
@@ -89,6 +89,9 @@ def test_the_capabilities_of_each_built_in_method():
         "raw_pixels": Capabilities(regressor="knn"),
         "pca": Capabilities(regressor="quadratic", extra_regressors=("map",)),
         "sfa": Capabilities(fit_rotations=True, transform_rotations=True, regressor="linear"),
+        # invariant by construction: circular convolutions pooled by |DFT| along the width
+        "deep_sfa": Capabilities(rotation_invariant=True, extra_regressors=("map",)),
+        "contrastive": Capabilities(rotation_invariant=True, extra_regressors=("map",)),
     }
     assert {name: get_capabilities(_method(name)) for name in BUILT_IN} == expected
     # the paired regression is a parameter where the method has one

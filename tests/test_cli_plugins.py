@@ -14,7 +14,13 @@ from pathlib import Path
 import pytest
 
 import sfa_gym
-from sfa_gym.plugins import checkout_root, default_plugin_folder, load_plugins
+from sfa_gym.plugins import (
+    PluginError,
+    checkout_root,
+    close_plugins,
+    default_plugin_folder,
+    load_plugins,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -79,6 +85,26 @@ def test_in_this_checkout_the_default_is_its_baselines_folder(capsys):
     assert capsys.readouterr().err == ""
 
 
+def test_a_plugin_that_needs_a_missing_extra_is_left_out_saying_so(tmp_path, capsys):
+    folder = tmp_path / "plugins"
+    folder.mkdir()
+    shutil.copy(ROOT / "baselines" / "band_means.py", folder)
+    # what the deep methods raise where torch is not installed
+    (folder / "deep.py").write_text(
+        "raise ImportError(\"needs torch: pip install 'sfa-gym[deep]'\")\n"
+    )
+    methods = load_plugins(folder)
+    try:
+        assert [method.name for method, _ in methods] == ["band_means"]
+    finally:
+        close_plugins(methods)
+    assert "deep.py left out: it needs sfa-gym[deep]" in capsys.readouterr().err
+    # any other failure to import is still an error
+    (folder / "deep.py").write_text("raise ImportError('no such thing')\n")
+    with pytest.raises(PluginError, match="no such thing"):
+        load_plugins(folder)
+
+
 def test_a_named_folder_must_exist(tmp_path):
     with pytest.raises(ValueError, match="is not a folder"):
         load_plugins(tmp_path / "missing")
@@ -109,6 +135,8 @@ def test_an_installed_wheel_uses_its_shipped_plugins_and_not_a_foreign_baselines
     assert done.returncode == 0, done.stderr
     where, names = done.stdout.splitlines()
     assert where.startswith(str(site))
-    assert names == "['band_means', 'fft_magnitude', 'pca', 'raw_pixels']"
+    assert names == (
+        "['band_means', 'contrastive', 'deep_sfa', 'fft_magnitude', 'pca', 'raw_pixels']"
+    )
     assert "shipped with sfa-gym" in done.stderr
     assert not (site / "baselines" / "IMPORTED").exists()

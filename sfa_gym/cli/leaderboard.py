@@ -43,7 +43,7 @@ class LeaderboardRun:
 
     method: tuple[str, ...]
     """feature-method plug-ins: built-in names (band_means, fft_magnitude, pca, raw_pixels,
-    sfa) or .py files of your own; several: a sweep"""
+    sfa, deep_sfa, contrastive) or .py files of your own; several: a sweep"""
     track: tuple[str, ...] = ("all",)
     """track names (files of --tracks) or "all" """
     quick: bool = False
