@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import re
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Literal
@@ -17,7 +18,9 @@ from sfa_gym.data import checkout_root, data_folder
 __all__ = [
     "KIND_NAMES",
     "Kind",
+    "OPT_IN_BUILTINS",
     "PluginError",
+    "default_baseline_files",
     "default_plugin_folder",
     "list_plugin_files",
     "missing_extra",
@@ -108,3 +111,23 @@ def missing_extra(error: BaseException) -> str | None:
     need an extra say so that way); None for any other failure."""
     found = re.search(r"pip install 'sfa-gym\[(\w+)\]'", str(error))
     return None if found is None else found.group(1)
+
+
+OPT_IN_BUILTINS = ("contrastive", "deep_sfa")
+"""Built-in methods that the command line's protocols run only when ``--baselines`` names a
+folder that holds them: they train for minutes (gradient descent on the training views), the
+other baselines in seconds."""
+
+
+def default_baseline_files(folder: str | Path) -> list[Path]:
+    """The plug-in files of the default baselines folder that the command line's protocols run:
+    all but :data:`OPT_IN_BUILTINS`, whose names are said on stderr."""
+    files = list_plugin_files(folder)
+    left_out = [p.name for p in files if p.stem in OPT_IN_BUILTINS]
+    if left_out:
+        print(
+            f"sfa-gym: {', '.join(left_out)} left out (minutes of training each); "
+            "name a --baselines folder that holds them to include them",
+            file=sys.stderr,
+        )
+    return [p for p in files if p.stem not in OPT_IN_BUILTINS]

@@ -93,6 +93,9 @@ finds the heading difference to the goal panorama itself (a visual compass:
 
 A file that does not follow this contract raises :class:`PluginError`, naming the file and what
 is missing.
+
+The module is longer than most because its docstring is the plug-in contract, the reference
+the docs and the plug-in files point to.
 """
 
 from __future__ import annotations
@@ -119,6 +122,7 @@ from sfa_gym.plugin_files import (
     KIND_NAMES,
     Kind,
     PluginError,
+    default_baseline_files,
     default_plugin_folder,
     list_plugin_files,
     missing_extra,
@@ -486,7 +490,9 @@ def load_plugins(
     above; :data:`~sfa_gym.sandbox.IN_PROCESS` imports them here instead): close them with
     :func:`close_plugins`. Hierarchical SFA (the built-in ``sfa.py``) is left out: the
     protocols train it themselves, with their own ``--sfa.*`` settings. So is, with a line on
-    stderr, a file that needs an extra not installed (the deep methods without torch).
+    stderr, a file that needs an extra not installed (the deep methods without torch). From
+    the default folder, so are the methods that train for minutes
+    (:func:`~sfa_gym.plugin_files.default_baseline_files`).
 
     Args:
         folder: the folder the user named, or None.
@@ -506,15 +512,17 @@ def load_plugins(
     if folder is not None:
         if not Path(folder).is_dir():
             raise ValueError(f"--baselines {str(folder)!r} is not a folder")
-    elif use_default:
+    default = folder is None and use_default
+    if default:
         folder, origin = default_plugin_folder(package_dir)
         if folder is None or checkout_root(package_dir) is None:
             print(f"sfa-gym: {origin}", file=sys.stderr)
     methods: list[tuple[FeatureMethod, tuple[str, ...]]] = []
     if folder is None:
         return methods
+    files = default_baseline_files(folder) if default else list_plugin_files(folder)
     try:
-        for path in list_plugin_files(folder):
+        for path in files:
             try:
                 method = load_method(path, isolated=plugins_isolated(), hidden=hidden)
             except PluginError as error:
