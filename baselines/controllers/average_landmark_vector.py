@@ -41,10 +41,14 @@ import numpy as np
 
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.navigation.homing import (
+    STOP,
     as_image,
+    check_band,
     check_panorama,
+    check_speed,
     heading_difference,
     rotational_difference,
+    steer,
 )
 
 
@@ -95,10 +99,8 @@ class AverageLandmarkVector:
     capabilities = Capabilities(panoramas=True)
 
     def __init__(self, rover: Any, args: Args) -> None:
-        if not 0 < args.speed <= rover.v_max:
-            raise ValueError(f"speed must be in (0, v_max={rover.v_max}] m/s, got {args.speed}")
-        if len(args.band) != 2 or not 0 <= args.band[0] < args.band[1] <= 1:
-            raise ValueError(f"band must be (from, to) with 0 <= from < to <= 1, got {args.band}")
+        check_speed(args.speed, rover)
+        check_band(args.band)
         if not 0 < args.dark < 1:
             raise ValueError(f"dark must be in (0, 1), got {args.dark}")
         if args.turn_gain <= 0:
@@ -135,11 +137,9 @@ class AverageLandmarkVector:
         home = self.home_vector(obs)
         self.below = self.below + 1 if float(np.hypot(*home)) < a.stop_length else 0
         if self.below >= a.stop_steps:
-            return np.array([0.0, 0.0, 1.0], dtype=np.float32)
+            return STOP.copy()
         error = math.atan2(home[1], home[0])
-        v = a.speed * max(math.cos(error), 0.0)
-        w = float(np.clip(a.turn_gain * error, -rover.w_max, rover.w_max))
-        return np.array([v, w, -1.0], dtype=np.float32)
+        return steer(error, a.speed, a.turn_gain, rover.w_max)
 
 
 def make_controller(rover: Any, weights: np.ndarray, **kwargs: Any) -> AverageLandmarkVector:

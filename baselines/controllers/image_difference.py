@@ -45,7 +45,13 @@ import numpy as np
 
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.geometry import wrap_angle
-from sfa_gym.navigation.homing import as_image, check_panorama, rotational_difference
+from sfa_gym.navigation.homing import (
+    STOP,
+    as_image,
+    check_panorama,
+    check_speed,
+    rotational_difference,
+)
 
 
 @dataclass(frozen=True)
@@ -83,8 +89,7 @@ class ImageDifferenceDescent:
     capabilities = Capabilities(panoramas=True)
 
     def __init__(self, rover: Any, args: Args) -> None:
-        if not 0 < args.speed <= rover.v_max:
-            raise ValueError(f"speed must be in (0, v_max={rover.v_max}] m/s, got {args.speed}")
+        check_speed(args.speed, rover)
         if not 0 < args.min_run <= args.run:
             raise ValueError(f"need 0 < min_run <= run, got min_run={args.min_run}, run={args.run}")
         if not 0 <= args.progress < 1:
@@ -158,7 +163,7 @@ class ImageDifferenceDescent:
             error = wrap_angle(self.target_yaw - yaw)
             w = float(np.clip(2.0 * error, -rover.w_max, rover.w_max))
             return np.array([a.speed, w, -1.0], dtype=np.float32)
-        return np.array([0.0, 0.0, 1.0], dtype=np.float32)  # stop
+        return STOP.copy()  # stop
 
 
 def make_controller(rover: Any, weights: np.ndarray, **kwargs: Any) -> ImageDifferenceDescent:

@@ -45,10 +45,14 @@ import numpy as np
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.geometry import wrap_angle
 from sfa_gym.navigation.homing import (
+    STOP,
     as_image,
+    check_band,
     check_panorama,
+    check_speed,
     heading_difference,
     rotational_difference,
+    steer,
 )
 
 
@@ -114,10 +118,8 @@ class MinWarping:
     capabilities = Capabilities(panoramas=True)
 
     def __init__(self, rover: Any, args: Args) -> None:
-        if not 0 < args.speed <= rover.v_max:
-            raise ValueError(f"speed must be in (0, v_max={rover.v_max}] m/s, got {args.speed}")
-        if len(args.band) != 2 or not 0 <= args.band[0] < args.band[1] <= 1:
-            raise ValueError(f"band must be (from, to) with 0 <= from < to <= 1, got {args.band}")
+        check_speed(args.speed, rover)
+        check_band(args.band)
         if args.blur < 0:
             raise ValueError(f"blur must be >= 0 pixels, got {args.blur}")
         for name in ("stride", "directions", "every"):
@@ -166,12 +168,10 @@ class MinWarping:
         a, rover = self.args, self.rover
         yaw = float(info["odometry"][2])
         if self.steps % a.every == 0 and not self._estimate(obs, yaw):
-            return np.array([0.0, 0.0, 1.0], dtype=np.float32)
+            return STOP.copy()
         self.steps += 1
         error = wrap_angle(self.home - yaw)
-        v = a.speed * max(math.cos(error), 0.0)
-        w = float(np.clip(a.turn_gain * error, -rover.w_max, rover.w_max))
-        return np.array([v, w, -1.0], dtype=np.float32)
+        return steer(error, a.speed, a.turn_gain, rover.w_max)
 
 
 def make_controller(rover: Any, weights: np.ndarray, **kwargs: Any) -> MinWarping:

@@ -22,11 +22,18 @@ from numpy.typing import NDArray
 from sfa_gym.geometry import wrap_angle
 
 __all__ = [
+    "STOP",
     "as_image",
+    "check_band",
     "check_panorama",
+    "check_speed",
     "heading_difference",
     "rotational_difference",
+    "steer",
 ]
+
+STOP = np.array([0.0, 0.0, 1.0], dtype=np.float32)
+"""The action that ends an episode: stand still and stop."""
 
 
 def check_panorama(value: Any, name: str) -> NDArray[np.uint8]:
@@ -86,3 +93,24 @@ def heading_difference(shift: int, width: int) -> float:
     """The current heading minus the goal's (rad, in ``[-pi, pi)``) from the shift ``k`` of
     :func:`rotational_difference`: a turn of ``+2*pi*k/W`` shifts a panorama by ``-k``."""
     return wrap_angle(-2.0 * math.pi * shift / width)
+
+
+def check_speed(speed: float, rover: Any) -> None:
+    """Raise ValueError unless ``0 < speed <= rover.v_max`` (m/s)."""
+    if not 0 < speed <= rover.v_max:
+        raise ValueError(f"speed must be in (0, v_max={rover.v_max}] m/s, got {speed}")
+
+
+def check_band(band: tuple[float, float]) -> None:
+    """Raise ValueError unless ``band`` is rows ``(from, to)``, ``0 <= from < to <= 1``."""
+    if len(band) != 2 or not 0 <= band[0] < band[1] <= 1:
+        raise ValueError(f"band must be (from, to) with 0 <= from < to <= 1, got {band}")
+
+
+def steer(error: float, speed: float, turn_gain: float, w_max: float) -> NDArray[np.float32]:
+    """The action towards a direction ``error`` rad from the heading: forward at ``speed``
+    times the cosine of the error (none while it points more than 90 degrees away), turning at
+    ``turn_gain`` times the error within ``+-w_max``."""
+    v = speed * max(math.cos(error), 0.0)
+    w = float(np.clip(turn_gain * error, -w_max, w_max))
+    return np.array([v, w, -1.0], dtype=np.float32)
