@@ -1,7 +1,8 @@
 """The outdoor tracks: the shipped files load and share their drive, bad outdoor parameters are
 refused naming the value, the render cache keys outdoor runs by every env kwarg that changes
 their pixels (and by nothing else), and a tiny outdoor track scores band_means end to end with
-the result file's schema, rendering the drive once for both tracks."""
+the result file's schema, rendering the drive once for both tracks and scoring the paper track
+with the appearance track's task, exactly as on its own."""
 
 from __future__ import annotations
 
@@ -232,6 +233,22 @@ def test_tiny_outdoor_tracks_score_band_means_and_share_the_drive(tmp_path):
     # the same method on the same drive: the reference "after" score is the paper track's
     assert later_scores["parts"]["after"] == paper["tasks"][0]["scores"]["parts"]["after"]
     assert later_scores["renders"]["drive"] == paper["tasks"][0]["scores"]["renders"]["drive"]
+
+    # the paper track's task was not run: its scores are a part of the later track's task,
+    # and exactly what running it alone gives (same cache: nothing is rendered again)
+    shared = json.loads((tmp_path / "results/tasks/outdoor_tiny/band_means/300.json").read_text())
+    assert shared["provenance"]["scored_with"] == "outdoor_tiny_later / band_means / world seed 300"
+    assert shared["output"]["seconds"] == 0.0
+    run_sweep(tracks[:1], [(BAND_MEANS, {})], tmp_path / "alone", cache_dir=cache, verbose=False)
+    alone = json.loads((tmp_path / "alone/tasks/outdoor_tiny/band_means/300.json").read_text())
+    assert "scored_with" not in alone["provenance"] and alone["output"]["seconds"] > 0
+    assert shared["output"]["scores"] == alone["output"]["scores"]
+    assert shared["identity"] == alone["identity"]
+    # a rerun of the shared sweep reuses both tasks
+    again = run_sweep(
+        tracks, [(BAND_MEANS, {})], tmp_path / "results", cache_dir=cache, verbose=False
+    )
+    assert again == written
 
     # the table lists each track's parts (conditions, unvisited region) below the scores
     table = write_table(tmp_path / "results")

@@ -34,6 +34,7 @@ __all__ = [
     "isolation",
     "plugins_isolated",
     "run_task",
+    "significant",
     "task_limits",
 ]
 
@@ -178,13 +179,13 @@ def _run_task(task: Task) -> dict[str, Any]:
     return {
         "world_seed": task.world_seed,
         "fit_world_seed": track.fit_world_seed(task.world_seed),
-        "scores": _significant(scores),
+        "scores": significant(scores),
         "seconds": round(time.perf_counter() - started, 2),
         "isolation": isolation(),
     }
 
 
-def _significant(value: Any, digits: int = 10) -> Any:
+def significant(value: Any, digits: int = 10) -> Any:
     """``value`` with every float rounded to ``digits`` significant digits. Float reductions
     can round differently in the last bits from one process to another (the alignment of the
     arrays decides where SIMD sums split), so scores agree between backends only to about 1e-14
@@ -192,7 +193,7 @@ def _significant(value: Any, digits: int = 10) -> Any:
     if isinstance(value, float):
         return float(f"{value:.{digits}g}")
     if isinstance(value, dict):
-        return {k: _significant(v, digits) for k, v in value.items()}
+        return {k: significant(v, digits) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_significant(v, digits) for v in value]
+        return [significant(v, digits) for v in value]
     return value

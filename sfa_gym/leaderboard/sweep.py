@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from sfa_gym.leaderboard.backends import Backend, TaskFailure, check_backend, run_each
-from sfa_gym.leaderboard.evaluate import HIGHER_IS_BETTER, Task, plugins_isolated
+from sfa_gym.leaderboard.evaluate import HIGHER_IS_BETTER, Task, plugins_isolated, significant
 from sfa_gym.leaderboard.results import (
     git_commit,
     make_result,
@@ -37,7 +37,7 @@ from sfa_gym.leaderboard.task_files import (
     task_provenance,
     write_task_file,
 )
-from sfa_gym.leaderboard.tracks import Track
+from sfa_gym.leaderboard.tracks import PROTOCOLS, Track, protocol_module
 from sfa_gym.plugin_files import Kind
 from sfa_gym.plugins import file_sha256, load_plugin
 from sfa_gym.recording.cache import RunCache
@@ -147,13 +147,14 @@ def run_sweep(
     say = _printer(verbose)
 
     planned = _plan(tracks, described, driver, results, quick, cache_dir, limits)
+    covering = _covering_tasks(tracks, planned, quick)
     finished: dict[int, dict[str, Any]] = {}
     todo = []
     for i, p in enumerate(planned):
         record, why = read_finished(p.path, p.identity) if resume else (None, "")
         if record is not None:
             finished[i] = record
-        else:
+        elif i not in covering:
             todo.append(i)
             if why:
                 say(f"{p.what}: computed again ({why})")
@@ -173,26 +174,37 @@ def run_sweep(
         track, method = tracks[pair[0]], described[pair[1]]
         written[pair] = _write_pair(results, track, method, quick, records)
 
-    for pair, members in pairs.items():
-        if all(i in finished for i in members):
-            write_pair(pair)
     failures: dict[int, tuple[str, TaskFailure]] = {}
     commit = git_commit()
-    tasks = [planned[i].task for i in todo]
-    try:
-        for j, outcome in run_each(tasks, backend, address=address, num_cpus=num_cpus):
-            i = todo[j]
-            p = planned[i]
-            provenance = task_provenance(backend, commit)
-            if isinstance(outcome, TaskFailure):
-                write_task_file(p.path, p.identity, None, outcome.describe(), provenance)
-                failures[i] = (p.what, outcome)
-                say(f"{p.what}: FAILED, {outcome}")
-                continue
+
+    def record(i: int, outcome: dict[str, Any] | TaskFailure, provenance: dict[str, Any]) -> None:
+        """Write task ``i``'s file, then those of the tasks it covers and its pair's result."""
+        p = planned[i]
+        if isinstance(outcome, TaskFailure):
+            write_task_file(p.path, p.identity, None, outcome.describe(), provenance)
+            failures[i] = (p.what, outcome)
+            say(f"{p.what}: FAILED, {outcome}")
+        else:
             finished[i] = write_task_file(p.path, p.identity, outcome, None, provenance)
             say(f"{p.what}: score {outcome['scores']['score']:.3f} ({outcome['seconds']:.1f} s)")
             if all(k in finished for k in pairs[p.pair]):
                 write_pair(p.pair)
+        for k in (k for k, by in covering.items() if by == i and k not in finished):
+            derived = _covered_outcome(tracks, planned, quick, k, i, outcome)
+            record(k, derived, {**provenance, "scored_with": p.what})
+
+    for i, by in covering.items():  # covered by a task finished in an earlier sitting
+        if i not in finished and by in finished:
+            derived = _covered_outcome(tracks, planned, quick, i, by, finished[by]["output"])
+            provenance = {**finished[by]["provenance"], "scored_with": planned[by].what}
+            record(i, derived, provenance)
+    for pair, members in pairs.items():
+        if all(i in finished for i in members):
+            write_pair(pair)
+    tasks = [planned[i].task for i in todo]
+    try:
+        for j, outcome in run_each(tasks, backend, address=address, num_cpus=num_cpus):
+            record(todo[j], outcome, task_provenance(backend, commit))
     except KeyboardInterrupt:
         say(
             f"interrupted: {len(finished)} of {len(planned)} task(s) finished and kept under "
@@ -203,6 +215,57 @@ def run_sweep(
     if failures:
         raise SweepError([failures[i] for i in sorted(failures)], ordered)  # in the sweep's order
     return ordered
+
+
+def _covering_tasks(
+    tracks: Sequence[Track], planned: list[_Planned], quick: bool
+) -> dict[int, int]:
+    """The planned tasks whose scores are a part of another planned task's, each with the task
+    that gives them: the same method and world seed on a track whose protocol ``covers`` this
+    track's settings (:func:`sfa_gym.protocols.outdoor.covers`: the paper's outdoor track is
+    a part of the appearance track). Of two tracks with the same settings, the first runs."""
+    configs = [t.config(quick) if t.evaluation in PROTOCOLS else None for t in tracks]
+    by_run: dict[tuple[int, int], list[int]] = {}
+    for i, p in enumerate(planned):
+        by_run.setdefault((p.pair[1], p.task.world_seed), []).append(i)
+    covering: dict[int, int] = {}
+    for members in by_run.values():
+        for i in members:
+            ti = planned[i].pair[0]
+            covers = getattr(protocol_module(tracks[ti].evaluation), "covers", None)
+            if covers is None or configs[ti] is None:
+                continue
+            for j in members:
+                tj = planned[j].pair[0]
+                if j == i or tracks[tj].evaluation != tracks[ti].evaluation:
+                    continue
+                if covers(configs[tj], configs[ti]) and (
+                    j < i or not covers(configs[ti], configs[tj])
+                ):
+                    covering[i] = j
+                    break
+    for i in covering:  # the task that runs, when the covering one is covered in turn
+        while covering[i] in covering:
+            covering[i] = covering[covering[i]]
+    return covering
+
+
+def _covered_outcome(
+    tracks: Sequence[Track],
+    planned: list[_Planned],
+    quick: bool,
+    i: int,
+    by: int,
+    outcome: dict[str, Any] | TaskFailure,
+) -> dict[str, Any] | TaskFailure:
+    """Task ``i``'s outcome from that of the task ``by`` that covers it: its part of the scores
+    (it costs no time of its own), or a failure naming the failed task."""
+    if isinstance(outcome, TaskFailure):
+        return TaskFailure(outcome.error_type, f"scored with {planned[by].what}: {outcome}")
+    track = tracks[planned[i].pair[0]]
+    module = protocol_module(track.evaluation)
+    scores = module.covered_scores(outcome["scores"], track.config(quick), outcome["world_seed"])
+    return {**outcome, "scores": significant(scores), "seconds": 0.0, "phases": {}}
 
 
 def concurrent_tasks(backend: Backend, address: str | None, num_cpus: int | None) -> int | None:

@@ -26,7 +26,7 @@ run's coordinate range, over all test frames, in the unvisited region and in the
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -49,6 +49,8 @@ __all__ = [
     "OutdoorData",
     "Scores",
     "condition_scores",
+    "covered_scores",
+    "covers",
     "fit_outdoor",
     "interleave",
     "load_data",
@@ -250,27 +252,79 @@ class Scores:
         ``unvisited``: the ``after`` run inside the south-west region), ``conditions``,
         ``regressor``, ``n_features``, ``frames`` and the cache keys of the runs."""
         regressor, found = next(iter(self.regressions.items()))
-
-        def percent(entry: Mapping[str, Any] | None) -> float | None:
-            return None if entry is None else float(np.mean(entry["mae_percent"]))
-
-        parts: dict[str, float | None] = {c: percent(e["all"]) for c, e in found.items()}
-        parts["unvisited"] = percent(found["after"]["unvisited"])
         data = self.data
-        return {
-            "score": float(np.mean([parts[c] for c in self.conditions])),
-            "parts": parts,
-            "conditions": found,
-            "regressor": regressor,
-            "n_features": int(self.invariance["n_features"]),
-            "frames": {
-                "train": len(data.runs["drive"]) - len(data.tests["after"].xy),
-                "test": len(data.tests["after"].xy),
-                "unvisited": int(data.tests["after"].inside.sum()),
-                "windows": len(data.windows),
-            },
-            "renders": {name: request.key() for name, request in data.requests.items()},
+        frames = {
+            "train": len(data.runs["drive"]) - len(data.tests["after"].xy),
+            "test": len(data.tests["after"].xy),
+            "unvisited": int(data.tests["after"].inside.sum()),
+            "windows": len(data.windows),
         }
+        renders = {name: request.key() for name, request in data.requests.items()}
+        n_features = int(self.invariance["n_features"])
+        return _task_scores(found, self.conditions, regressor, n_features, frames, renders)
+
+
+def _task_scores(
+    found: Mapping[str, Any],
+    conditions: Sequence[str],
+    regressor: str,
+    n_features: int,
+    frames: dict[str, int],
+    renders: dict[str, str],
+) -> dict[str, Any]:
+    """:meth:`Scores.task_scores` from each condition's entry ``found`` (``"after"`` first)."""
+
+    def percent(entry: Mapping[str, Any] | None) -> float | None:
+        return None if entry is None else float(np.mean(entry["mae_percent"]))
+
+    parts: dict[str, float | None] = {c: percent(e["all"]) for c, e in found.items()}
+    parts["unvisited"] = percent(found["after"]["unvisited"])
+    return {
+        "score": float(np.mean([parts[c] for c in conditions])),
+        "parts": parts,
+        "conditions": dict(found),
+        "regressor": regressor,
+        "n_features": n_features,
+        "frames": frames,
+        "renders": renders,
+    }
+
+
+def covers(config: Config, other: Config) -> bool:
+    """Whether a task scored with ``config`` gives the scores of ``other`` too: the same settings
+    but for ``conditions``, and ``other``'s test conditions among ``config``'s. The fit, the
+    regression and each condition's estimates do not depend on which other conditions are
+    scored, so ``other``'s scores are a part of ``config``'s (:func:`covered_scores`): one
+    task serves the paper's track and the appearance tracks of a world seed."""
+    if replace(config, conditions=other.conditions) != other:
+        return False
+    # "after" (the drive's own test part) is scored by every task
+    return set(other.test_conditions) <= {"after", *config.test_conditions}
+
+
+def covered_scores(scores: Mapping[str, Any], other: Config, world_seed: int) -> dict[str, Any]:
+    """The task scores (:meth:`Scores.task_scores`) of ``other`` on ``world_seed``, from the
+    task scores ``scores`` of a config that :func:`covers` it on the same world seed.
+
+    Raises:
+        ValueError: ``scores`` lack a run or a condition of ``other``'s, or rendered a run
+            that ``other`` asks for differently.
+    """
+    asked = {name: request.key() for name, request in requests(other, world_seed).items()}
+    renders = scores["renders"]
+    wanted = dict.fromkeys(("after", *other.test_conditions))
+    for name, key in asked.items():
+        if renders.get(name) != key:
+            raise ValueError(f"the covering task rendered run {name!r} as {renders.get(name)!r}, "
+                             f"this config asks for {key!r}")
+    missing = [c for c in wanted if c not in scores["conditions"]]
+    if missing:
+        raise ValueError(f"the covering task did not score conditions {missing}")
+    found = {c: scores["conditions"][c] for c in wanted}
+    frames, n_features = dict(scores["frames"]), int(scores["n_features"])
+    return _task_scores(
+        found, other.test_conditions, scores["regressor"], n_features, frames, asked
+    )
 
 
 def score_on(
