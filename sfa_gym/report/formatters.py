@@ -22,6 +22,7 @@ from sfa_gym.intervals import format_interval
 __all__ = [
     "board_parts_table",
     "board_seconds_table",
+    "board_time_table",
     "board_table",
     "descent_bound_table",
     "equivariance_table",
@@ -380,6 +381,30 @@ def leaderboard_timings_table(files: Sequence[dict[str, Any]], options: dict[str
         lines.append(_row([f"`{t['track']}`", *cells, f"{t['estimated_track_seconds'] / 60:.1f}"]))
     hours = data["estimated_board_seconds"] / 3600
     lines.append(_row(["the full board, one method", "", "", "", f"{hours:.1f} h"]))
+    return "\n".join(lines)
+
+
+def board_time_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """A whole sweep's time per track (``benchmarks/board_time.py``): when each track's tasks
+    ran (minutes from the sweep's start), its wall span and task seconds, the tasks scored
+    with another track's; one column block per file (method)."""
+    lines = _head(["track", "method", "from min", "to min", "wall min", "task s", "covered"])
+    for data in files:
+        if "tracks" not in data or "wall_minutes" not in data:
+            raise ValueError("board-time: expected a file of benchmarks/board_time.py")
+        method = data["method"]
+        for row in data["tracks"]:
+            ran = row["tasks"] > 0
+            cells = [
+                f"{row['from_minutes']:.1f}" if ran else "-",
+                f"{row['to_minutes']:.1f}" if ran else "-",
+                f"{row['wall_minutes']:.1f}",
+                f"{row['task_seconds']:.0f}",
+                row["covered"] or "",
+            ]
+            lines.append(_row([f"`{row['track']}`", method, *cells]))
+        total = [f"**{data['wall_minutes']:.1f}**", f"{data['task_seconds']:.0f}", ""]
+        lines.append(_row(["**the whole board**", method, "", "", *total]))
     return "\n".join(lines)
 
 
