@@ -24,6 +24,7 @@ from sklearn.exceptions import NotFittedError
 from tqdm.auto import tqdm
 
 from sfa_gym.plugins import Capabilities, check_views, iter_chunks
+from sfa_gym.shrink import shrunk_rotations
 
 
 @dataclass(frozen=True)
@@ -100,7 +101,9 @@ class PCA(TransformerMixin, BaseEstimator):
 
     @property
     def capabilities(self) -> Capabilities:
-        return Capabilities(regressor=self.regressor, extra_regressors=("map",))
+        return Capabilities(
+            regressor=self.regressor, extra_regressors=("map",), transform_rotations=True
+        )
 
     def fit(self, views: NDArray[np.uint8], sequence_ids: NDArray | None = None) -> PCA:
         """Fit on training ``views (N, H, W, 3)`` uint8 (their order is irrelevant to PCA)."""
@@ -149,6 +152,32 @@ class PCA(TransformerMixin, BaseEstimator):
         out = np.empty((len(views), len(self.components_)))
         for part in iter_chunks(len(views), self.chunk):
             out[part] = self.pca_.transform(shrink_views(views[part], self.shrink))
+        return out
+
+    def transform_rotations(self, panoramas: NDArray[np.uint8], step: int) -> NDArray[np.float64]:
+        """Features of every ``step``-column rotated view of each panorama ``(L, H, W, 3)``
+        uint8, views as wide as the fitted ones: ``(L, W // step, n_components)``. The shrunk
+        views come from a few shrunk copies of each panorama (:func:`sfa_gym.shrink.
+        shrunk_rotations`, the same bytes as shrinking each view), so no view is built or
+        sent to this worker; each panorama's views are projected together, as ``transform``
+        does when given them."""
+        if not hasattr(self, "pca_"):
+            raise NotFittedError("PCA is not fitted yet; call fit(views) first")
+        panoramas = check_views(panoramas)
+        height, window = self.input_shape_[:2]
+        if panoramas.shape[1] != height or panoramas.shape[2] < window:
+            raise ValueError(
+                f"PCA was fitted on views of shape {self.input_shape_}; panoramas of shape "
+                f"{tuple(panoramas.shape[1:])} do not give such views"
+            )
+        rows, cols = height // self.shrink, window // self.shrink
+        shrunk = shrunk_rotations(panoramas, step, window, rows, cols)
+        n, k = shrunk.shape[:2]
+        out = np.empty((n, k, len(self.components_)))
+        for i, views in enumerate(shrunk):
+            flat = views.reshape(k, -1) / 255.0
+            for part in iter_chunks(k, self.chunk):
+                out[i, part] = self.pca_.transform(flat[part])
         return out
 
 

@@ -18,6 +18,7 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.exceptions import NotFittedError
 
 from sfa_gym.plugins import Capabilities, check_views
+from sfa_gym.shrink import shrunk_rotations
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,7 @@ class RawPixels(TransformerMixin, BaseEstimator):
 
     @property
     def capabilities(self) -> Capabilities:
-        return Capabilities(regressor=self.regressor)
+        return Capabilities(regressor=self.regressor, transform_rotations=True)
 
     def fit(self, views: NDArray[np.uint8], sequence_ids: NDArray | None = None) -> RawPixels:
         """Record ``input_shape_`` (nothing to learn); ``views (N, H, W, 3)`` uint8."""
@@ -81,6 +82,23 @@ class RawPixels(TransformerMixin, BaseEstimator):
         if not hasattr(self, "input_shape_"):
             raise NotFittedError("RawPixels is not fitted yet; call fit(views) first")
         return raw_pixels(views, self.height, self.width)
+
+    def transform_rotations(self, panoramas: NDArray[np.uint8], step: int) -> NDArray[np.float64]:
+        """Features of every ``step``-column rotated view of each panorama ``(L, H, W, 3)``
+        uint8, views as wide as the fitted ones: ``(L, W // step, height * width * 3)``, the
+        same values as ``transform`` of each view (:func:`sfa_gym.shrink.shrunk_rotations`:
+        no view is built or sent to this worker)."""
+        if not hasattr(self, "input_shape_"):
+            raise NotFittedError("RawPixels is not fitted yet; call fit(views) first")
+        panoramas = check_views(panoramas)
+        window = self.input_shape_[1]
+        if panoramas.shape[1] != self.input_shape_[0] or panoramas.shape[2] < window:
+            raise ValueError(
+                f"RawPixels was fitted on views of shape {self.input_shape_}; panoramas of "
+                f"shape {tuple(panoramas.shape[1:])} do not give such views"
+            )
+        shrunk = shrunk_rotations(panoramas, step, window, self.height, self.width)
+        return shrunk.reshape(*shrunk.shape[:2], -1) / 255.0
 
 
 METHOD = RawPixels

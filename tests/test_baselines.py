@@ -86,8 +86,10 @@ def test_the_capabilities_of_each_built_in_method():
         "fft_magnitude": Capabilities(
             rotation_invariant=True, regressor="linear", extra_regressors=("map",)
         ),
-        "raw_pixels": Capabilities(regressor="knn"),
-        "pca": Capabilities(regressor="quadratic", extra_regressors=("map",)),
+        "raw_pixels": Capabilities(regressor="knn", transform_rotations=True),
+        "pca": Capabilities(
+            regressor="quadratic", extra_regressors=("map",), transform_rotations=True
+        ),
         "sfa": Capabilities(fit_rotations=True, transform_rotations=True, regressor="linear"),
         # invariant by construction: circular convolutions pooled by |DFT| along the width
         "deep_sfa": Capabilities(rotation_invariant=True, extra_regressors=("map",)),
@@ -213,6 +215,31 @@ def test_pca_matches_an_svd_and_whitens():
     # Chunked accumulation gives the same components; the same data give the same signs.
     chunked = _method("pca", n_components=5, shrink=2, chunk=7).fit(views)
     np.testing.assert_allclose(chunked.transform(views), features, atol=1e-8)
+
+
+@pytest.mark.parametrize(
+    ("name", "kwargs", "size", "step", "window"),
+    [
+        ("pca", {}, (40, 350), 1, None),  # a feature field: every column
+        ("pca", {}, (40, 350), 5, 175),  # a narrower field of view
+        ("pca", {"shrink": 4}, (30, 120), 2, None),  # 4 does not divide 30: 7 rows
+        ("raw_pixels", {}, (40, 350), 5, None),
+        ("raw_pixels", {}, (60, 600), 5, None),  # 600 / 35 columns: each view shrunk
+    ],
+)
+def test_transform_rotations_gives_the_features_of_each_rotated_view(
+    name, kwargs, size, step, window
+):
+    panoramas = _views(4, *size, seed=5)
+    train = rotated_views(panoramas, step=10, window=window)[0]
+    method = _method(name, **kwargs).fit(train.reshape(-1, *train.shape[2:]))
+    fast = method.transform_rotations(panoramas, step)
+    views = rotated_views(panoramas, step=step, window=window)[0]
+    # what the protocols computed before: each panorama's views transformed together
+    each = np.stack([method.transform(v) for v in views])
+    assert fast.shape == each.shape and np.array_equal(fast, each)
+    with pytest.raises(ValueError, match="do not give such views"):
+        method.transform_rotations(panoramas[:, :-1], step)
 
 
 def test_pca_bad_input_is_refused_clearly():
