@@ -45,9 +45,17 @@ def test_board_time_spans_tracks_and_counts_covered_tasks(tmp_path):
     assert out["cores_busy"] == pytest.approx(640 / 300, abs=0.01)
 
     table = board_time_table([json.loads(json.dumps(out))], {})
-    assert "| `b` | sfa | 1.0 | 5.0 | 4.0 | 420 |  |" in table
-    assert "| `c` | sfa | - | - | 0.0 | 0 | 1 |" in table
-    assert "| **the whole board** | sfa |  |  | **5.0** | 640 |  |" in table
+    assert "| `b` | 1.0 | 5.0 | 4.0 | 420 |  |" in table
+    assert "| `c` | - | - | 0.0 | 0 | 1 |" in table
+    assert "| **the whole board, sfa** |  |  | **5.0** | 640 |  |" in table
+    # several methods: a column each
+    other = json.loads(json.dumps(out)) | {"method": "pca", "wall_minutes": 2.5}
+    other["tracks"] = other["tracks"][:1]
+    table = board_time_table([out, other], {})
+    assert "| track: wall min | sfa | pca |" in table
+    assert "| `a` | 2.0 | 2.0 |" in table and "| `b` | 4.0 | - |" in table
+    assert "| `c` | covered | - |" in table
+    assert "| **the whole board** | **5.0** | **2.5** |" in table
 
 
 def test_board_time_needs_finished_tasks_of_the_method(tmp_path):

@@ -385,26 +385,47 @@ def leaderboard_timings_table(files: Sequence[dict[str, Any]], options: dict[str
 
 
 def board_time_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
-    """A whole sweep's time per track (``benchmarks/board_time.py``): when each track's tasks
-    ran (minutes from the sweep's start), its wall span and task seconds, the tasks scored
-    with another track's; one column block per file (method)."""
-    lines = _head(["track", "method", "from min", "to min", "wall min", "task s", "covered"])
+    """A whole sweep's time per track (``benchmarks/board_time.py``). One file: when each
+    track's tasks ran (minutes from the sweep's start), its wall span and task seconds, the
+    tasks scored with another track's (``covered``). Several files (one per method): each
+    track's wall minutes, a column per method, and each whole board's."""
     for data in files:
         if "tracks" not in data or "wall_minutes" not in data:
             raise ValueError("board-time: expected a file of benchmarks/board_time.py")
-        method = data["method"]
-        for row in data["tracks"]:
-            ran = row["tasks"] > 0
-            cells = [
-                f"{row['from_minutes']:.1f}" if ran else "-",
-                f"{row['to_minutes']:.1f}" if ran else "-",
-                f"{row['wall_minutes']:.1f}",
-                f"{row['task_seconds']:.0f}",
-                row["covered"] or "",
-            ]
-            lines.append(_row([f"`{row['track']}`", method, *cells]))
-        total = [f"**{data['wall_minutes']:.1f}**", f"{data['task_seconds']:.0f}", ""]
-        lines.append(_row(["**the whole board**", method, "", "", *total]))
+    if len(files) > 1:
+        methods = [data["method"] for data in files]
+        tracks = list(dict.fromkeys(row["track"] for data in files for row in data["tracks"]))
+        spans = [{row["track"]: row for row in data["tracks"]} for data in files]
+        lines = _head(["track: wall min", *methods])
+        for t in tracks:
+            cells = []
+            for found in spans:
+                row = found.get(t)
+                cells.append(
+                    "-"
+                    if row is None
+                    else "covered"
+                    if not row["tasks"]
+                    else f"{row['wall_minutes']:.1f}"
+                )
+            lines.append(_row([f"`{t}`", *cells]))
+        total = [f"**{data['wall_minutes']:.1f}**" for data in files]
+        lines.append(_row(["**the whole board**", *total]))
+        return "\n".join(lines)
+    (data,) = files
+    lines = _head(["track", "from min", "to min", "wall min", "task s", "covered"])
+    for row in data["tracks"]:
+        ran = row["tasks"] > 0
+        cells = [
+            f"{row['from_minutes']:.1f}" if ran else "-",
+            f"{row['to_minutes']:.1f}" if ran else "-",
+            f"{row['wall_minutes']:.1f}",
+            f"{row['task_seconds']:.0f}",
+            row["covered"] or "",
+        ]
+        lines.append(_row([f"`{row['track']}`", *cells]))
+    total = [f"**{data['wall_minutes']:.1f}**", f"{data['task_seconds']:.0f}", ""]
+    lines.append(_row([f"**the whole board, {data['method']}**", "", "", *total]))
     return "\n".join(lines)
 
 
