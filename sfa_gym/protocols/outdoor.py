@@ -315,8 +315,10 @@ def covered_scores(scores: Mapping[str, Any], other: Config, world_seed: int) ->
     wanted = dict.fromkeys(("after", *other.test_conditions))
     for name, key in asked.items():
         if renders.get(name) != key:
-            raise ValueError(f"the covering task rendered run {name!r} as {renders.get(name)!r}, "
-                             f"this config asks for {key!r}")
+            raise ValueError(
+                f"the covering task rendered run {name!r} as {renders.get(name)!r}, "
+                f"this config asks for {key!r}"
+            )
     missing = [c for c in wanted if c not in scores["conditions"]]
     if missing:
         raise ValueError(f"the covering task did not score conditions {missing}")
