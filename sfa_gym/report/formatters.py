@@ -384,6 +384,13 @@ def leaderboard_timings_table(files: Sequence[dict[str, Any]], options: dict[str
     return "\n".join(lines)
 
 
+def _wall_cell(row: dict[str, Any] | None) -> str:
+    """A track's wall minutes in the several-methods board-time table."""
+    if row is None:
+        return "-"
+    return "covered" if not row["tasks"] else f"{row['wall_minutes']:.1f}"
+
+
 def board_time_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
     """A whole sweep's time per track (``benchmarks/board_time.py``). One file: when each
     track's tasks ran (minutes from the sweep's start), its wall span and task seconds, the
@@ -398,17 +405,7 @@ def board_time_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -
         spans = [{row["track"]: row for row in data["tracks"]} for data in files]
         lines = _head(["track: wall min", *methods])
         for t in tracks:
-            cells = []
-            for found in spans:
-                row = found.get(t)
-                cells.append(
-                    "-"
-                    if row is None
-                    else "covered"
-                    if not row["tasks"]
-                    else f"{row['wall_minutes']:.1f}"
-                )
-            lines.append(_row([f"`{t}`", *cells]))
+            lines.append(_row([f"`{t}`", *(_wall_cell(found.get(t)) for found in spans)]))
         total = [f"**{data['wall_minutes']:.1f}**" for data in files]
         lines.append(_row(["**the whole board**", *total]))
         return "\n".join(lines)
