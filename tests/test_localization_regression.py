@@ -124,7 +124,7 @@ def test_quadratic_ridge_recovers_a_quadratic_map_where_linear_cannot():
     assert linear_error > 0.3
 
 
-@pytest.mark.parametrize("algorithm", ["kd_tree", "brute"])
+@pytest.mark.parametrize("algorithm", ["kd_tree", "bounded", "brute"])
 @pytest.mark.parametrize("k", [2, 40])
 def test_knn_averages_the_nearest_training_targets(algorithm, k):
     x, rng = _data(60, k=k)
@@ -140,9 +140,7 @@ def test_knn_averages_the_nearest_training_targets(algorithm, k):
     np.testing.assert_array_equal(KNNRegressor(1, algorithm=algorithm).fit(x, y).predict(x), y)
     weighted = KNNRegressor(4, weights="distance", algorithm=algorithm).fit(x, y)
     # Brute force gets distances from dot products: an exact match is ~1e-8, not 0, away.
-    np.testing.assert_allclose(
-        weighted.predict(x), y, rtol=1e-7 if algorithm == "kd_tree" else 1e-5
-    )
+    np.testing.assert_allclose(weighted.predict(x), y, rtol=1e-5 if algorithm == "brute" else 1e-7)
     # As many neighbours as samples: the mean of all targets.
     everything = KNNRegressor(60, algorithm=algorithm).fit(x, y).predict(queries)
     np.testing.assert_allclose(everything, np.broadcast_to(y.mean(axis=0), (10, 2)))
@@ -153,10 +151,10 @@ def test_knn_auto_uses_a_tree_only_in_few_dimensions():
     y = rng.normal(size=(30, 2))
     assert KNNRegressor().fit(x, y).algorithm_ == "kd_tree"
     wide, _ = _data(30, k=40)
-    assert KNNRegressor().fit(wide, y).algorithm_ == "brute"
+    assert KNNRegressor().fit(wide, y).algorithm_ == "bounded"
 
 
-@pytest.mark.parametrize("algorithm", ["kd_tree", "brute"])
+@pytest.mark.parametrize("algorithm", ["kd_tree", "bounded", "brute"])
 def test_knn_distance_weights(algorithm):
     x = np.array([[0.0], [1.0], [3.0]])
     y = np.array([[0.0], [10.0], [30.0]])

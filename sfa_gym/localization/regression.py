@@ -5,11 +5,12 @@ Four scikit-learn regressors (``clone``, ``Pipeline`` and ``GridSearchCV`` work 
 
 - :class:`LinearRegressor`: least squares with an intercept, as in the paper (optional ridge).
 - :class:`QuadraticRidge`: all products of pairs of standardized features, then ridge regression.
-- :class:`KNNRegressor`: mean position of the ``k`` nearest training features.
+- :class:`KNNRegressor`: mean position of the ``k`` nearest training features (an exact search
+  that skips most distances by lower bounds, :mod:`sfa_gym.localization.nearest`).
 - :class:`MapDecoder`: learns each feature as a smooth map over the plane (or a line) and returns
   the position whose mapped features best match.
 
-The first three are thin layers over scikit-learn's own pieces (``StandardScaler``,
+The first three build on scikit-learn's own pieces (``StandardScaler``,
 ``PolynomialFeatures``, ``LinearRegression``, ``Ridge``, ``KNeighborsRegressor``) that keep this
 project's defaults and error messages. :func:`make_regressor` builds one by name (``"linear"``,
 ``"quadratic"``, ``"knn"``, ``"map"``). An unfitted ``predict`` raises scikit-learn's
@@ -30,6 +31,7 @@ from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from sfa_gym.localization._estimator import _Base
 from sfa_gym.localization.map_decoder import MapDecoder
+from sfa_gym.localization.nearest import BoundedNeighbors
 
 __all__ = [
     "KNNRegressor",
@@ -45,7 +47,7 @@ __all__ = [
 # few thousand samples no longer fits comfortably in memory (k = 198 gives 19_899 columns).
 MAX_QUADRATIC_FEATURES = 20_000
 
-# Above this many features a k-d tree visits nearly every node; brute force by BLAS is faster.
+# Above this many features a k-d tree visits nearly every node; the bounded search is faster.
 BRUTE_FORCE_DIMENSION = 16
 
 
@@ -158,22 +160,24 @@ class QuadraticRidge(_Base):
 
 
 class KNNRegressor(_Base):
-    """Mean target of the ``n_neighbors`` nearest training samples (Euclidean;
-    ``KNeighborsRegressor``).
+    """Mean target of the ``n_neighbors`` nearest training samples (Euclidean).
 
     Args:
         n_neighbors: Number of neighbours averaged (``>= 1``; at most the number of training
             samples).
         weights: ``"uniform"``: plain mean; ``"distance"``: weighted by inverse distance (an exact
-            match returns the matched target; to ~1e-7 relative with brute force, which computes
-            distances from dot products).
-        algorithm: ``"kd_tree"``, ``"brute"`` (all distances, by matrix products) or ``"auto"``:
-            the tree up to ``BRUTE_FORCE_DIMENSION`` features, brute force above, where a k-d tree
-            degenerates into a slower exhaustive search.
+            match returns the matched target).
+        algorithm: how the neighbours are found, all exact: ``"kd_tree"`` (scikit-learn's),
+            ``"bounded"`` (:class:`~sfa_gym.localization.nearest.BoundedNeighbors`: distances
+            summed directly, most of them skipped by lower bounds), ``"brute"`` (scikit-learn's
+            search through every distance, computed from dot products, which can swap two
+            neighbours whose distances agree to ~1e-7 relative) or ``"auto"``: the tree up to
+            ``BRUTE_FORCE_DIMENSION`` features, where it is fastest, the bounded search above.
 
     Attributes:
-        algorithm_: ``"kd_tree"`` or ``"brute"``, the search used.
-        neighbors_: the fitted ``sklearn.neighbors.KNeighborsRegressor``.
+        algorithm_: ``"kd_tree"``, ``"bounded"`` or ``"brute"``, the search used.
+        neighbors_: the fitted search: a ``sklearn.neighbors.KNeighborsRegressor`` or a
+            :class:`~sfa_gym.localization.nearest.BoundedNeighbors`.
         n_features_in_: int.
     """
 
@@ -181,7 +185,7 @@ class KNNRegressor(_Base):
         self,
         n_neighbors: int = 3,
         weights: Literal["uniform", "distance"] = "uniform",
-        algorithm: Literal["auto", "kd_tree", "brute"] = "auto",
+        algorithm: Literal["auto", "kd_tree", "bounded", "brute"] = "auto",
     ) -> None:
         self.n_neighbors = n_neighbors
         self.weights = weights
@@ -196,9 +200,9 @@ class KNNRegressor(_Base):
             raise ValueError(f"n_neighbors must be >= 1, got {self.n_neighbors}")
         if self.weights not in ("uniform", "distance"):
             raise ValueError(f"weights must be 'uniform' or 'distance', got {self.weights!r}")
-        if self.algorithm not in ("auto", "kd_tree", "brute"):
+        if self.algorithm not in ("auto", "kd_tree", "bounded", "brute"):
             raise ValueError(
-                f"algorithm must be 'auto', 'kd_tree' or 'brute', got {self.algorithm!r}"
+                f"algorithm must be 'auto', 'kd_tree', 'bounded' or 'brute', got {self.algorithm!r}"
             )
         x, y = self._validate_fit(X, y)
         if x.shape[0] < self.n_neighbors:
@@ -207,18 +211,33 @@ class KNNRegressor(_Base):
                 f"training samples, got n_samples={x.shape[0]}"
             )
         if self.algorithm == "auto":
-            self.algorithm_ = "kd_tree" if x.shape[1] <= BRUTE_FORCE_DIMENSION else "brute"
+            self.algorithm_ = "kd_tree" if x.shape[1] <= BRUTE_FORCE_DIMENSION else "bounded"
         else:
             self.algorithm_ = self.algorithm
-        self.neighbors_ = KNeighborsRegressor(
-            n_neighbors=int(self.n_neighbors), weights=self.weights, algorithm=self.algorithm_
-        ).fit(x, y)
+        if self.algorithm_ == "bounded":
+            self.neighbors_ = BoundedNeighbors(x, int(self.n_neighbors))
+            self.targets_ = np.asarray(y, dtype=np.float64)
+        else:
+            self.neighbors_ = KNeighborsRegressor(
+                n_neighbors=int(self.n_neighbors), weights=self.weights, algorithm=self.algorithm_
+            ).fit(x, y)
         return self
 
     def predict(self, X: ArrayLike) -> NDArray[np.float64]:
         """Predicted targets ``(N, m)`` (or ``(N,)``) for features ``X (N, k)``."""
         x = self._validate_predict(X)
-        return self._as_targets(self.neighbors_.predict(x))
+        if self.algorithm_ != "bounded":
+            return self._as_targets(self.neighbors_.predict(x))
+        distances, indices = self.neighbors_.kneighbors(x)
+        near = self.targets_[indices]  # (N, n_neighbors, ...) as scikit-learn averages them
+        if self.weights == "uniform":
+            return self._as_targets(np.mean(near, axis=1))
+        with np.errstate(divide="ignore"):
+            weights = 1.0 / distances
+        exact = np.isinf(weights).any(axis=1)
+        weights[exact] = np.isinf(weights[exact]).astype(np.float64)  # only the exact matches
+        weights = weights.reshape(weights.shape + (1,) * (near.ndim - 2))
+        return self._as_targets(np.sum(near * weights, axis=1) / np.sum(weights, axis=1))
 
 
 REGRESSORS: dict[str, type[_Base]] = {
