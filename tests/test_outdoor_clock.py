@@ -178,3 +178,25 @@ def test_a_winter_track_scores_each_later_offset(tmp_path):
     parts = scores["parts"]
     assert scores["score"] == pytest.approx((parts["later+2h"] + parts["later+6h"]) / 2)
     assert parts["later+2h"] != parts["later+6h"]  # two runs at two hours of a winter day
+
+
+def test_the_textured_tracks_render_the_same_places_textured_and_cover_each_other():
+    from sfa_gym.leaderboard.tracks import list_tracks
+    from sfa_gym.protocols.outdoor import covers
+
+    tracks = {t.name: t for t in list_tracks(ROOT / "tracks")}
+    flat, textured = tracks["outdoor_paper"], tracks["outdoor_paper_textured"]
+    assert textured.world_seeds == flat.world_seeds  # the same places, flat and textured
+    flat_config, textured_config = flat.config(quick=False), textured.config(quick=False)
+    assert dataclasses.replace(textured_config, textures=False) == flat_config
+    # the flat world's runs keep the cache keys they had before the setting existed
+    assert "textures" not in flat_config.env_kwargs("after", 300)
+    assert textured_config.env_kwargs("after", 300)["textures"] is True
+    flat_keys = {n: r.key() for n, r in requests(flat_config, 300).items()}
+    textured_keys = {n: r.key() for n, r in requests(textured_config, 300).items()}
+    assert flat_keys["drive"] != textured_keys["drive"]
+    # one task of the textured appearance track scores the textured paper track, not the flat
+    appearance = tracks["outdoor_appearance_textured"].config(quick=False)
+    assert covers(appearance, textured_config) and not covers(appearance, flat_config)
+    with pytest.raises(TypeError, match="textures must be True or False, got 1"):
+        dataclasses.replace(Config(), textures=1).validate()

@@ -78,6 +78,9 @@ class Config:
     """the camera's auto-exposure and pixel noise"""
     vibration: bool = True
     """the sprung camera mast (False: a rigid one)"""
+    textures: bool = False
+    """generated textures on the ground, facades, trees and bushes (sfa_gym.sim.worlds.textures:
+    the env's textures=True); False: the flat-shaded world"""
     camera: Camera = "mirror"
     """the mirror camera (unwarped) or the ideal cylindrical one"""
     step: int = 5
@@ -134,7 +137,7 @@ class Config:
                 "they need dynamics=True"
             )
         self._validate_clock()
-        for name in ("dynamics", "sensor", "vibration"):
+        for name in ("dynamics", "sensor", "vibration", "textures"):
             if not isinstance(getattr(self, name), bool):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
         check_choice("camera", self.camera, Camera)
@@ -262,6 +265,8 @@ class Config:
         }
         if self.camera == "cylindrical":
             kwargs["mirror"] = None
+        if self.textures:  # only when on: the flat world's runs keep their cache keys
+            kwargs["textures"] = True
         if self.panorama is not None:
             from sfa_gym.sim.camera import PanoramaSpec
 

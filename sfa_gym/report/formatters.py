@@ -20,6 +20,7 @@ import numpy as np
 from sfa_gym.intervals import format_interval
 
 __all__ = [
+    "appearance_change_table",
     "board_parts_table",
     "board_seconds_table",
     "board_time_table",
@@ -286,6 +287,19 @@ def image_statistics_table(files: Sequence[dict[str, Any]], options: dict[str, s
         for name, view in data["views"].items():
             p = view["contrast_percentiles"]
             lines.append(_row([name, f"{view['alpha']:.2f}", p["10"], p["50"], p["90"]]))
+    return "\n".join(lines)
+
+
+def appearance_change_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Per appearance track and condition, the mean grey-level change of a panorama at a fixed
+    pose, that over the study's distance, and their ratio (``studies/appearance_change.py``)."""
+    lines = _head(["track", "condition", "fixed pose", "moved", "ratio", "pose offset (cm)"])
+    for data in files:
+        for result in data["results"]:
+            for condition, row in result["conditions"].items():
+                cells = [f"{row['fixed_pose']:.2f}", f"{result['moved']:.2f}"]
+                cells += [f"{row['ratio']:.2f}", f"{100 * row['pose_offset_max_m']:.1f}"]
+                lines.append(_row([result["track"], condition, *cells]))
     return "\n".join(lines)
 
 

@@ -72,6 +72,7 @@ GENERATORS: dict[str, Generator] = {
     "nav-steps": formatters.nav_steps_table,
     "outdoor-cost": formatters.outdoor_cost_table,
     "image-statistics": formatters.image_statistics_table,
+    "appearance-change": formatters.appearance_change_table,
     "textures-build": formatters.textures_build_table,
     "paper-pipeline": formatters.paper_pipeline_table,
     "sfa-engine": formatters.sfa_engine_table,
@@ -85,8 +86,8 @@ navigation protocol's ``results.json``), ``board``, ``board-parts`` and ``board-
 (navigation studies' episode sets),
 ``quick-vs-full`` (the quick board's ranks against the full one's), ``descent-bound``,
 ``nav-steps``, ``outdoor-cost`` (also the textures' cost per step), ``image-statistics``,
-``textures-build``, ``paper-pipeline``, ``sfa-engine``, ``leaderboard-timings`` and
-``equivariance`` (:mod:`sfa_gym.report.formatters`)."""
+``appearance-change``, ``textures-build``, ``paper-pipeline``, ``sfa-engine``,
+``leaderboard-timings`` and ``equivariance`` (:mod:`sfa_gym.report.formatters`)."""
 
 _BLOCK = re.compile(
     r"<!-- generated: (?P<spec>[^\n]*?) -->\n(?P<body>.*?)<!-- end generated -->", re.DOTALL
