@@ -22,8 +22,18 @@ def _clustered(n, k, rng, n_clusters=30):
     return centres[rng.integers(n_clusters, size=n)] + 0.3 * rng.normal(size=(n, k))
 
 
+@pytest.fixture(params=["bounds", "brute force"])
+def search(request, monkeypatch):
+    """Both ways of the search: groups and bounds (made to pay at these small sizes), and
+    scikit-learn's brute force with the exact rule on top."""
+    if request.param == "bounds":
+        monkeypatch.setattr(nearest, "MIN_SAMPLES_FOR_BOUNDS", 0)
+        monkeypatch.setattr(nearest, "BOUNDS_PAY_BELOW", 1.0)
+    return request.param
+
+
 @pytest.mark.parametrize(("n", "k", "n_neighbors"), [(3000, 120, 3), (700, 60, 5), (40, 8, 1)])
-def test_bounded_search_equals_the_exhaustive_one(n, k, n_neighbors):
+def test_bounded_search_equals_the_exhaustive_one(search, n, k, n_neighbors):
     rng = np.random.default_rng(n)
     train = _clustered(n, k, rng)
     queries = np.concatenate([_clustered(200, k, rng), rng.normal(size=(20, k)) * 10])
@@ -33,7 +43,7 @@ def test_bounded_search_equals_the_exhaustive_one(n, k, n_neighbors):
     np.testing.assert_array_equal(distances, want_distances)
 
 
-def test_ties_go_to_the_lower_index_and_every_sample_can_be_asked_for():
+def test_ties_go_to_the_lower_index_and_every_sample_can_be_asked_for(search):
     rng = np.random.default_rng(1)
     base = _clustered(300, 50, rng)
     train = np.concatenate([base, base[::-1]])  # every sample twice
@@ -49,15 +59,18 @@ def test_ties_go_to_the_lower_index_and_every_sample_can_be_asked_for():
 
 
 def test_the_grouping_changes_nothing(monkeypatch):
-    """Groups decide only how much is skipped: one group (a search through every sample) and
-    many small groups find the same neighbours."""
+    """Groups decide only how much is skipped: one group (a search through every sample), many
+    small groups and no groups at all (every distance expanded) find the same neighbours."""
     rng = np.random.default_rng(2)
     train, queries = _clustered(2000, 90, rng), _clustered(300, 90, rng)
     default = BoundedNeighbors(train, 3).kneighbors(queries)
-    for per_group, axes in ((len(train), 2), (8, 90), (40, 1)):
+    monkeypatch.setattr(nearest, "MIN_SAMPLES_FOR_BOUNDS", 0)
+    # the last: every block by brute force, as when bounds do not pay
+    for per_group, axes, share in ((len(train), 2, 1.0), (8, 90, 1.0), (40, 1, 1.0), (40, 8, 0)):
         monkeypatch.setattr(nearest, "SAMPLES_PER_GROUP", per_group)
         monkeypatch.setattr(nearest, "CODE_AXES", axes)
         monkeypatch.setattr(nearest, "QUERY_BLOCK", 37)
+        monkeypatch.setattr(nearest, "BOUNDS_PAY_BELOW", share)
         other = BoundedNeighbors(train, 3).kneighbors(queries)
         np.testing.assert_array_equal(other[1], default[1])
         np.testing.assert_array_equal(other[0], default[0])

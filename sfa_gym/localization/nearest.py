@@ -15,6 +15,10 @@ to the members of its nearest group, whose ``n_neighbors``-th is an upper bound 
 ``n_neighbors``-th nearest distance; then only groups whose bound is at most ``U``, and in them
 only members whose code distance is at most ``U``, get an exact distance.
 
+Where the groups would leave more than a tenth of the distances (few training samples, queries
+far from all of them), scikit-learn's brute force finds a few more neighbours than asked by the
+dot-product expansion, and the same rule picks among those within its round-off.
+
 The result is that of an exhaustive search with each distance summed directly over the
 differences (not by the dot-product expansion, which loses digits between close samples),
 sorted by distance, then by index. The grouping only decides how much is skipped: no sample whose
@@ -26,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from sklearn.neighbors import NearestNeighbors
 
 __all__ = ["BoundedNeighbors"]
 
@@ -45,8 +50,22 @@ KMEANS_ITERATIONS = 8
 # smallest code distances, this many per neighbour asked.
 UPPER_CANDIDATES = 4
 
+# Below this many training samples every distance is computed (scikit-learn's brute force, see
+# below): a few seconds at most, less than placing the groups.
+MIN_SAMPLES_FOR_BOUNDS = 20_000
+
 # Queries handled together: bounds to every group centre for a block stay a few MB.
 QUERY_BLOCK = 1024
+
+# When the groups leave more than this share of a block's (query, sample) pairs, bounds do not
+# pay (few training samples, or queries far from all of them): scikit-learn's brute force then
+# computes every distance of the block by the dot-product expansion, which is exact to a known
+# round-off, and only the samples within that round-off of each query's n_neighbors-th get a
+# distance summed directly.
+BOUNDS_PAY_BELOW = 0.1
+# Neighbours asked of scikit-learn beyond n_neighbors in that case: enough that a query's
+# n_neighbors-th is almost always clear of the last by more than the round-off.
+EXTRA_NEIGHBOURS = 8
 
 # Loosening of every squared bound, relative to the squared code lengths involved. A code's last
 # coordinate is the square root of a difference of two sums of a few hundred terms, which can be
@@ -82,6 +101,14 @@ class BoundedNeighbors:
                 f"{train.shape}"
             )
         self.train, self.n_neighbors = train, n_neighbors
+        self._longest_train = float(np.max(np.einsum("ij,ij->i", train, train)))
+        self._brute = None
+        self.grouped = len(train) >= MIN_SAMPLES_FOR_BOUNDS
+        if self.grouped:
+            self._group(train)
+
+    def _group(self, train: NDArray[np.float64]) -> None:
+        """Codes, groups, centres and radii (module docstring)."""
         self.center = train.mean(axis=0)
         centred = train - self.center
         _, vectors = np.linalg.eigh(centred.T @ centred)  # ascending: take the last columns
@@ -126,12 +153,25 @@ class BoundedNeighbors:
         return distances, indices
 
     def _block(self, queries: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        if not self.grouped:
+            return self._finish(queries, *self._expanded_candidates(queries))
         codes = self._codes(queries - self.center)
         slack = _SLACK * (np.sum(codes**2, axis=1) + self.code_scale)
         to_centres = np.sqrt(np.maximum(_squared_distances(codes, self.centres), 0.0))
         # sqrt(x + e) differs from sqrt(x) by at most sqrt(|e|)
         to_centres -= np.sqrt(slack)[:, None]
-        upper = self._upper(queries, codes, to_centres.argmin(axis=1))
+        picked, estimate = self._pick(codes, to_centres.argmin(axis=1))
+        # whether bounds pay, by the code distances (cheap; below the exact ones)
+        sizes = np.diff(self.bounds)
+        share = ((to_centres - self.radii <= estimate[:, None]) @ sizes).sum()
+        if share > BOUNDS_PAY_BELOW * len(queries) * len(self.train):
+            return self._finish(queries, *self._expanded_candidates(queries))
+        # an upper bound of each query's n_neighbors-th distance: the n_neighbors-th exact
+        # distance to its picked samples (distinct, and at least n_neighbors of them)
+        rows = np.repeat(np.arange(len(queries)), picked.shape[1])
+        exact = self._exact(queries, rows, picked.ravel())
+        exact = exact.reshape(picked.shape)
+        upper = np.sqrt(np.partition(exact, self.n_neighbors - 1, axis=1)[:, self.n_neighbors - 1])
         reach = upper * (1 + _UPPER_SLACK)
         passing = to_centres - self.radii <= reach[:, None]
         query_parts, sample_parts = [], []
@@ -143,7 +183,39 @@ class BoundedNeighbors:
             near_query, near_member = np.nonzero(bound <= (reach[asking] ** 2)[:, None])
             query_parts.append(asking[near_query])
             sample_parts.append(self.order[members][near_member])
-        query, sample = np.concatenate(query_parts), np.concatenate(sample_parts)
+        return self._finish(queries, np.concatenate(query_parts), np.concatenate(sample_parts))
+
+    def _expanded_candidates(self, queries: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        """The pairs whose distance by the dot-product expansion is within its round-off of the
+        query's ``n_neighbors``-th: scikit-learn's brute-force search for a few more
+        neighbours, and every distance of the queries whose last one is still that close."""
+        k, n_train = self.n_neighbors, len(self.train)
+        asked = min(n_train, k + EXTRA_NEIGHBOURS)
+        if self._brute is None:
+            self._brute = NearestNeighbors(n_neighbors=asked, algorithm="brute").fit(self.train)
+        distances, found = self._brute.kneighbors(queries, asked)
+        squared = distances**2
+        lengths = np.einsum("ij,ij->i", queries, queries) + self._longest_train
+        # the expansion's round-off is below (features + 2) units of round-off of the lengths;
+        # the slack is a thousand times that, so round-off can add a candidate, never drop one
+        slack = 1e3 * (self.train.shape[1] + 2) * np.finfo(np.float64).eps * lengths
+        # a query is settled if all it was not given are farther than its k-th by the slack
+        settled = (asked == n_train) | (squared[:, -1] > squared[:, k - 1] + 2 * slack)
+        within = squared <= (squared[:, k - 1] + 2 * slack)[:, None]
+        query, column = np.nonzero(within & settled[:, None])
+        query_parts, sample_parts = [query], [found[query, column]]
+        for q in np.flatnonzero(~settled):  # ties beyond the extra neighbours: rare
+            expanded = _squared_distances(queries[q : q + 1], self.train)[0]
+            near = np.flatnonzero(expanded <= squared[q, k - 1] + 3 * slack[q])
+            query_parts.append(np.full(len(near), q))
+            sample_parts.append(near)
+        return np.concatenate(query_parts), np.concatenate(sample_parts)
+
+    def _finish(
+        self, queries: NDArray[np.float64], query: NDArray[np.intp], sample: NDArray[np.intp]
+    ) -> tuple[NDArray, NDArray]:
+        """The ``n_neighbors`` nearest of each query among its candidate pairs (which include
+        them), by the distances summed directly, ties to the lower index."""
         exact = self._exact(queries, query, sample)
         order = np.lexsort((sample, exact, query))  # per query, by distance, then index
         query, sample, exact = query[order], sample[order], exact[order]
@@ -152,30 +224,30 @@ class BoundedNeighbors:
         )
         return np.sqrt(exact[take]), sample[take]
 
-    def _upper(
-        self, queries: NDArray[np.float64], codes: NDArray[np.float64], nearest: NDArray[np.intp]
-    ) -> NDArray[np.float64]:
-        """An upper bound of each query's ``n_neighbors``-th distance: the ``n_neighbors``-th
-        exact distance to the members of its nearest group with the smallest code distances
-        (and to other samples when the group has fewer than ``n_neighbors``)."""
+    def _pick(
+        self, codes: NDArray[np.float64], nearest: NDArray[np.intp]
+    ) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+        """Per query, distinct samples ``(M, m)`` whose exact distances give its upper bound:
+        the members of its nearest group with the smallest code distances (and other samples
+        when the group is smaller), and the ``n_neighbors``-th of those code distances."""
         k = self.n_neighbors
-        upper = np.empty(len(queries))
+        m = min(UPPER_CANDIDATES * k, len(self.train))
+        picked = np.empty((len(codes), m), dtype=np.intp)
+        estimate = np.zeros(len(codes))
         for group in np.unique(nearest):
             asking = np.flatnonzero(nearest == group)
             members = slice(self.bounds[group], self.bounds[group + 1])
             samples = self.order[members]
-            if len(samples) > UPPER_CANDIDATES * k:
+            if len(samples) >= m:
                 close = _squared_distances(codes[asking], self.codes[members])
-                picked = np.argpartition(close, UPPER_CANDIDATES * k - 1, axis=1)
-                picked = samples[picked[:, : UPPER_CANDIDATES * k]]
-            else:  # the whole group, and other samples if it has fewer than k
-                spare = np.setdiff1d(np.arange(len(samples) + k), samples)
-                row = np.concatenate([samples, spare[: max(0, k - len(samples))]])
-                picked = np.broadcast_to(row, (len(asking), len(row)))
-            exact = self._exact(queries, np.repeat(asking, picked.shape[1]), picked.ravel())
-            exact = exact.reshape(picked.shape)
-            upper[asking] = np.sqrt(np.partition(exact, k - 1, axis=1)[:, k - 1])
-        return upper
+                chosen = np.argpartition(close, m - 1, axis=1)[:, :m]
+                picked[asking] = samples[chosen]
+                close = np.take_along_axis(close, chosen, axis=1)
+                estimate[asking] = np.sqrt(np.maximum(np.sort(close, axis=1)[:, k - 1], 0.0))
+            else:  # the whole group and other samples
+                spare = np.setdiff1d(np.arange(len(samples) + m), samples)
+                picked[asking] = np.concatenate([samples, spare[: m - len(samples)]])
+        return picked, estimate
 
     def _exact(
         self, queries: NDArray[np.float64], query: NDArray[np.intp], sample: NDArray[np.intp]
