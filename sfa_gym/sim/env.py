@@ -24,6 +24,7 @@ import mujoco  # noqa: E402  (MUJOCO_GL must be set first)
 from gymnasium import spaces  # noqa: E402
 
 from sfa_gym.sim.camera import MirrorCamera, MirrorSpec, PanoramaSpec  # noqa: E402
+from sfa_gym.sim.camera.mirror import vignetting_gain  # noqa: E402
 from sfa_gym.sim.camera.renderer import OmniCamera  # noqa: E402
 from sfa_gym.sim.camera.sensor import Sensor, SensorSpec, resolve_sensor  # noqa: E402
 from sfa_gym.sim.rover import WHEELS, RoverSpec, rover_mjcf, yaw_of_quat  # noqa: E402
@@ -167,8 +168,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     * ``clock``, ``clouds``, ``movers`` (None): switch one effect of the dynamics on or off
       (None keeps the spec's); ``start_hour`` (None): the time of day the clock starts at.
     * ``sensor`` (None): the camera's auto-exposure and noise: None or False for none, True
-      for the default ``SensorSpec``, or a ``SensorSpec``; ``auto_exposure`` and
-      ``sensor_noise`` (None) switch its two effects. Noise is drawn from a generator seeded
+      for the default ``SensorSpec``, or a ``SensorSpec`` (which also switches on auto white
+      balance and a mirror camera's vignetting); ``auto_exposure`` and ``sensor_noise``
+      (None) switch its two default effects. Noise is drawn from a generator seeded
       from ``np_random`` on each reset (same seed, same noise).
     * ``textures`` (None): generated surface textures (outdoor worlds): None keeps the world
       spec's, False none, True the spec's or the default ``TexturesSpec``, or a
@@ -314,7 +316,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         # time of day (s since midnight): set on the first reset, then it runs on
         self._clock: float | None = None
         self._sun_time: float | None = None  # where the sun is held with the clock off
-        self._sensor = None if self.sensor is None else Sensor(self.sensor)
+        self._sensor = None if self.sensor is None else Sensor(self.sensor, self._falloff())
         self._noise_rng: np.random.Generator | None = None
 
         self.action_space = spaces.Box(
@@ -490,6 +492,19 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
             self._clock = self.dynamics.start_hour * 3600.0
         if self.dynamics is not None and not self.dynamics.clock:
             self._sun_time = self._clock  # the sun stays where it stands now
+
+    def _falloff(self) -> NDArray[np.float32] | None:
+        """The lens's relative illumination per pixel, when the sensor vignettes (a mirror
+        camera's lens: the ideal cylindrical camera has no lens to vignette)."""
+        if self.sensor is None or self.sensor.vignetting == 0:
+            return None
+        if not isinstance(self._camera, MirrorCamera):
+            raise ValueError(
+                f"vignetting {self.sensor.vignetting} needs a mirror camera (the lens under the "
+                f"mirror); camera {self.camera!r} has none"
+            )
+        circular = self.camera == "mirror_circular"
+        return vignetting_gain(self._camera.spec, self.sensor.vignetting, circular)
 
     def _observe(self, dt: float | None) -> NDArray[np.uint8]:
         """What the camera delivers now; ``dt`` seconds after the previous frame, or None for

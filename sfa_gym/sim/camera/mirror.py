@@ -55,7 +55,15 @@ from sfa_gym.sim.camera.projection import PanoramaSpec
 if TYPE_CHECKING:
     import mujoco
 
-__all__ = ["MirrorCamera", "MirrorSpec", "UnwarpRows", "lift", "project", "unwarp"]
+__all__ = [
+    "MirrorCamera",
+    "MirrorSpec",
+    "UnwarpRows",
+    "lift",
+    "project",
+    "unwarp",
+    "vignetting_gain",
+]
 
 UnwarpRows = Literal["radius", "elevation"]
 """How the unwarped panorama's rows are spaced: evenly in image radius or in elevation."""
@@ -378,24 +386,55 @@ def _circular_maps(spec: MirrorSpec) -> tuple[NDArray[Any], NDArray[Any], NDArra
 
 
 @functools.lru_cache(maxsize=8)
+def _row_radii(spec: MirrorSpec, rows: int) -> NDArray[np.float64]:
+    """Circular-image radius of each of ``rows`` unwarped rows, top (the rim's side) first."""
+    fraction = (np.arange(rows) + 0.5) / rows  # 0 at the top edge, 1 at the bottom edge
+    if spec.unwarp_rows == "radius":
+        bottom, top = spec.unwarp_radii
+        return top + (bottom - top) * fraction
+    low, high = (math.radians(e) for e in spec.unwarp_elevation_deg)
+    return _radius(spec.xi, spec.gamma, high + (low - high) * fraction)
+
+
 def _unwarp_maps(spec: MirrorSpec) -> tuple[NDArray[Any], NDArray[Any]]:
     """Fixed-point remap tables from the circular image to the supersampled panorama."""
     s = spec.supersample
     rows, cols = spec.panorama_height * s, spec.panorama_width * s
     # Sub-pixel centres: after the s x s box filter, column c is centred on azimuth 2*pi*c/W.
     azimuth = 2.0 * np.pi / spec.panorama_width * ((np.arange(cols) + 0.5) / s - 0.5)
-    fraction = (np.arange(rows) + 0.5) / rows  # 0 at the top edge, 1 at the bottom edge
-    if spec.unwarp_rows == "radius":
-        bottom, top = spec.unwarp_radii
-        radius = top + (bottom - top) * fraction
-    else:
-        low, high = (math.radians(e) for e in spec.unwarp_elevation_deg)
-        radius = _radius(spec.xi, spec.gamma, high + (low - high) * fraction)
+    radius = _row_radii(spec, rows)
     dx, dy = spec.unwarp_centre_offset
     # Same orientation as project(): heading up, counter-clockwise azimuth clockwise on screen.
     map_x = spec.cx + dx + radius[:, None] * np.sin(azimuth)[None, :]
     map_y = spec.cy + dy - radius[:, None] * np.cos(azimuth)[None, :]
     return cv2.convertMaps(map_x.astype(np.float32), map_y.astype(np.float32), cv2.CV_16SC2)
+
+
+def vignetting_gain(
+    spec: MirrorSpec, rim_loss: float, circular: bool = False
+) -> NDArray[np.float32]:
+    """Relative illumination of each pixel of the unwarped panorama ``(H, W)`` (or, with
+    ``circular``, of the circular image ``(S, S)``): ``cos^4`` of the angle between the lens's
+    axis and the ray that reaches the pixel's radius in the circular image. The lens's focal
+    length is the one that loses ``rim_loss`` of the light at the mirror's rim; the unwarped
+    pixels' radii are measured from the true centre (the unwarp's may be off it)."""
+    if not 0.0 <= rim_loss < 1.0:
+        raise ValueError(f"rim_loss must be in [0, 1), got {rim_loss!r}")
+    rim = spec.disc_radii[1]
+    # cos^4(theta) = 1 / (1 + (r / f)^2)^2 equals 1 - rim_loss at the rim
+    reach = math.sqrt(1.0 / math.sqrt(1.0 - rim_loss) - 1.0) / rim  # 1 / f
+    if circular:
+        v, u = np.mgrid[0 : spec.image_size, 0 : spec.image_size].astype(np.float64)
+        radius = np.hypot(u - spec.cx, v - spec.cy)
+    else:
+        height, width = spec.panorama_height, spec.panorama_width
+        azimuth = 2.0 * np.pi * np.arange(width) / width
+        rows = _row_radii(spec, height)
+        dx, dy = spec.unwarp_centre_offset
+        radius = np.hypot(
+            dx + rows[:, None] * np.sin(azimuth)[None, :], dy - rows[:, None] * np.cos(azimuth)
+        )
+    return (1.0 / (1.0 + (radius * reach) ** 2) ** 2).astype(np.float32)
 
 
 def unwarp(circular: NDArray[np.uint8], spec: MirrorSpec) -> NDArray[np.uint8]:

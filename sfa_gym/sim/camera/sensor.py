@@ -1,4 +1,5 @@
-"""The camera's own effects on its pixels: auto-exposure (gain) and noise.
+"""The camera's own effects on its pixels: vignetting, auto-exposure (gain), auto white
+balance and noise.
 
 A real camera does not see the scene's radiance: it scales it by a gain that its auto-exposure
 drives towards a target brightness, with a lag, and adds noise. Outdoors this matters: when a
@@ -9,6 +10,14 @@ cloud passes, the image first darkens and then the exposure brings it back.
   to ``gain_range``. The meter averages the pixels that are not black in every channel (a
   mirror camera's image is black outside the mirror's disc). :meth:`Sensor.reset` sets it to
   the steady value of the first frame, so an episode starts well exposed.
+* Vignetting (off by default): the lens passes less light away from its axis, by the ``cos^4``
+  law of the angle off the axis; the camera gives the relative illumination of each pixel
+  (:func:`sfa_gym.sim.camera.mirror.vignetting_gain`: ``1 - vignetting`` at the mirror's rim).
+  It acts before the meter, as on a real sensor, and the lens's output is whole grey levels.
+* Auto white balance (off by default): a gain per colour channel that moves, with the
+  exposure's lag, towards the grey world's value (the channels' mean over their common mean,
+  metered on the same pixels), clipped to ``white_balance_range``: under a blue sky or an
+  evening sun the colours drift and come back, as a consumer camera's do.
 * Noise: Gaussian read noise of ``read_noise`` grey levels plus shot noise whose variance grows
   with the signal (``shot_noise**2 * value``), drawn from the generator the caller passes
   (the env derives it from its seed: same seed, same noise).
@@ -37,6 +46,10 @@ class SensorSpec:
         noise: add pixel noise.
         read_noise: standard deviation of the signal-independent noise, grey levels.
         shot_noise: shot noise: standard deviation ``shot_noise * sqrt(value)``.
+        white_balance: drive a gain per colour channel towards the grey world's.
+        white_balance_range: ``[min, max]`` gain of a channel.
+        vignetting: share of the light lost at the edge of the image (the mirror's rim),
+            ``0 <= vignetting < 1``; 0: none.
     """
 
     auto_exposure: bool = True
@@ -46,9 +59,12 @@ class SensorSpec:
     noise: bool = True
     read_noise: float = 1.5
     shot_noise: float = 0.25
+    white_balance: bool = False
+    white_balance_range: tuple[float, float] = (0.5, 2.0)
+    vignetting: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("auto_exposure", "noise"):
+        for name in ("auto_exposure", "noise", "white_balance"):
             value = getattr(self, name)
             if not isinstance(value, bool):
                 raise ValueError(f"{name} must be True or False, got {value!r}")
@@ -65,21 +81,49 @@ class SensorSpec:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a number >= 0, got {value!r}")
+        lo, hi = self.white_balance_range
+        if not 0.0 < lo <= 1.0 <= hi:
+            raise ValueError(
+                f"white_balance_range must be [min, max] with 0 < min <= 1 <= max, got {[lo, hi]}"
+            )
+        v = self.vignetting
+        if isinstance(v, bool) or not (isinstance(v, int | float) and 0.0 <= v < 1.0):
+            raise ValueError(f"vignetting must be a number in [0, 1), got {v!r}")
 
     @property
     def active(self) -> bool:
         """Whether the sensor changes any pixel."""
-        return self.auto_exposure or (self.noise and (self.read_noise > 0 or self.shot_noise > 0))
+        noisy = self.noise and (self.read_noise > 0 or self.shot_noise > 0)
+        return self.auto_exposure or self.white_balance or self.vignetting > 0 or noisy
 
 
 class Sensor:
-    """The state of one camera's sensor (its gain) between frames."""
+    """The state of one camera's sensor (its gains) between frames.
 
-    def __init__(self, spec: SensorSpec) -> None:
+    Args:
+        spec: the sensor's effects.
+        falloff: with ``spec.vignetting``: the relative illumination of each pixel ``(H, W)``,
+            from the camera (:func:`sfa_gym.sim.camera.mirror.vignetting_gain`).
+    """
+
+    def __init__(self, spec: SensorSpec, falloff: NDArray[np.float32] | None = None) -> None:
         if not isinstance(spec, SensorSpec):
             raise TypeError(f"spec must be a SensorSpec, got {type(spec).__name__}")
+        if (spec.vignetting > 0) != (falloff is not None):
+            raise ValueError(
+                f"vignetting {spec.vignetting} needs the camera's falloff map, and only then one"
+            )
         self.spec = spec
+        self.falloff = None if falloff is None else np.asarray(falloff, np.float32)[..., None]
         self.gain = 1.0
+        self.balance = np.ones(3)
+
+    def _lit(self, image: NDArray[np.uint8]) -> int:
+        """Pixels not black in every channel (outside a mirror's disc all are black)."""
+        lit = image[..., 0].copy()
+        for channel in range(1, image.shape[-1]):  # an OR per channel: 10x a reduce
+            lit |= image[..., channel]
+        return int(np.count_nonzero(lit))
 
     def _steady_gain(self, image: NDArray[np.uint8]) -> float:
         lo, hi = self.spec.gain_range
@@ -87,35 +131,57 @@ class Sensor:
         # nothing to the sum, so the mean over the lit ones is the sum over the lit count (an
         # exact integer sum: the same number as the mean over a copy of the lit pixels)
         if image.ndim == 3:
-            lit = image[..., 0].copy()
-            for channel in range(1, image.shape[-1]):  # an OR per channel: 10x a reduce
-                lit |= image[..., channel]
-            count = np.count_nonzero(lit) * image.shape[-1]
+            count = self._lit(image) * image.shape[-1]
         else:
             count = np.count_nonzero(image)
         mean = max(int(image.sum(dtype=np.uint64)) / count if count else 0.0, 1.0)
         return min(hi, max(lo, self.spec.target / mean))
 
+    def _steady_balance(self, image: NDArray[np.uint8]) -> NDArray[np.float64]:
+        """The grey world's gain per channel: the channels' common mean over each one's."""
+        if image.ndim < 3 or image.shape[-1] != 3:
+            raise ValueError(f"white balance needs RGB images (..., 3), got shape {image.shape}")
+        sums = np.array([int(image[..., c].sum(dtype=np.uint64)) for c in range(3)], float)
+        sums = np.maximum(sums, 1.0)  # exact integer sums, as the exposure's
+        lo, hi = self.spec.white_balance_range
+        return np.clip(sums.mean() / sums, lo, hi)
+
+    def _optics(self, image: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        """The image the lens delivers to the sensor: vignetted, in whole grey levels."""
+        if self.falloff is None:
+            return image
+        lens = image * self.falloff
+        np.rint(lens, out=lens)
+        return lens.astype(np.uint8)
+
     def reset(self, image: NDArray[np.uint8]) -> None:
-        """Start from the gain at which ``image`` (the raw first frame) is well exposed."""
+        """Start from the gains at which ``image`` (the raw first frame) is well exposed."""
+        image = self._optics(image)
         self.gain = self._steady_gain(image) if self.spec.auto_exposure else 1.0
+        self.balance = self._steady_balance(image) if self.spec.white_balance else np.ones(3)
 
     def process(
         self, image: NDArray[np.uint8], dt: float, rng: np.random.Generator
     ) -> NDArray[np.uint8]:
         """The frame the camera delivers for the raw frame ``image`` (uint8, any shape),
-        ``dt`` seconds after the previous one; updates the gain first."""
+        ``dt`` seconds after the previous one; updates the gains first."""
         spec = self.spec
+        image = self._optics(image)
+        # first-order lag in log gain: equal steps up and down in stops
+        alpha = 1.0 - math.exp(-dt / spec.tau_s) if dt > 0 else 0.0
         if spec.auto_exposure and dt > 0:
-            # first-order lag in log gain: equal steps up and down in stops
-            alpha = 1.0 - math.exp(-dt / spec.tau_s)
             self.gain = math.exp(
                 (1 - alpha) * math.log(self.gain) + alpha * math.log(self._steady_gain(image))
             )
+        if spec.white_balance and dt > 0:
+            steady = np.log(self._steady_balance(image))
+            self.balance = np.exp((1 - alpha) * np.log(self.balance) + alpha * steady)
         if not spec.active:
             return image
         signal = image.astype(np.float32)
-        if spec.auto_exposure:
+        if spec.white_balance:
+            signal *= (self.gain * self.balance).astype(np.float32)
+        elif spec.auto_exposure:
             signal *= np.float32(self.gain)
         if spec.noise:  # in place, in float32: the same numbers with fewer temporaries
             noise = rng.standard_normal(signal.shape, dtype=np.float32)

@@ -1,0 +1,81 @@
+"""Benchmark: what the camera's optional effects (auto white balance, vignetting) cost per step.
+
+The registered ``OmniRoverOutdoor-v0`` (mirror camera, dynamics, auto-exposure and noise: the
+reference) against the same env with each effect switched on and with both, all driving the
+same commands (a slow curve) from the same start, timed in interleaved batches
+(:func:`benchmarks.bench_outdoor.time_steps`) and reported as the median CPU time of the process
+per step and its ratio to the reference measured in the same process (CPU time: on a shared
+machine a batch's wall-clock depends on what else runs; the file has the wall-clock too).
+
+Usage (from the repository root)::
+
+    .venv/bin/python -m benchmarks.bench_sensor [--steps 40] [--repeats 5]
+"""
+
+from __future__ import annotations
+
+import statistics
+from dataclasses import dataclass
+from pathlib import Path
+
+import gymnasium as gym
+import tyro
+
+import sfa_gym  # noqa: F401  (registers the ids)
+from benchmarks.bench_outdoor import time_steps
+from sfa_gym.files import write_json_atomic
+from sfa_gym.sim.camera.sensor import SensorSpec
+
+SENSORS: dict[str, SensorSpec] = {
+    "OmniRoverOutdoor-v0": SensorSpec(),
+    "+ auto white balance": SensorSpec(white_balance=True),
+    "+ vignetting 0.3": SensorSpec(vignetting=0.3),
+    "+ both": SensorSpec(white_balance=True, vignetting=0.3),
+}
+"""Each env's name and sensor; the first is the reference."""
+
+
+@dataclass(frozen=True)
+class Args:
+    steps: int = 40
+    """steps per batch"""
+    repeats: int = 5
+    """interleaved batches per env"""
+    out: Path = Path("published/benchmarks/sensor.json")
+    """where the figures are written"""
+
+
+def main(args: Args) -> None:
+    if min(args.steps, args.repeats) < 1:
+        raise SystemExit(f"--steps and --repeats must be >= 1, got {args.steps}, {args.repeats}")
+    envs = {
+        name: gym.make("sfa_gym/OmniRoverOutdoor-v0", sensor=sensor).unwrapped
+        for name, sensor in SENSORS.items()
+    }
+    wall, cpu = time_steps(envs, args.steps, args.repeats)
+    reference = statistics.median(cpu[next(iter(SENSORS))])
+    rows = {
+        name: {
+            "ms_per_step": 1e3 * statistics.median(cpu[name]),
+            "ratio": statistics.median(cpu[name]) / reference,
+            "wall_ms_per_step": 1e3 * statistics.median(wall[name]),
+        }
+        for name in SENSORS
+    }
+    for name, row in rows.items():
+        print(f"{name:<28} {row['ms_per_step']:7.1f} CPU ms/step  ratio {row['ratio']:.2f}")
+    write_json_atomic(
+        args.out,
+        {
+            "steps": args.steps,
+            "repeats": args.repeats,
+            "ratio_to": "OmniRoverOutdoor-v0 (auto-exposure and noise)",
+            "ms_per_step": "median CPU time of the process per step (all its threads)",
+            "rows": rows,
+        },
+    )
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main(tyro.cli(Args))
