@@ -200,3 +200,22 @@ def test_the_textured_tracks_render_the_same_places_textured_and_cover_each_othe
     assert covers(appearance, textured_config) and not covers(appearance, flat_config)
     with pytest.raises(TypeError, match="textures must be True or False, got 1"):
         dataclasses.replace(Config(), textures=1).validate()
+
+
+def test_white_balance_and_vignetting_reach_the_env_only_when_switched_on():
+    from sfa_gym.sim.camera.sensor import SensorSpec
+
+    plain = Config().env_kwargs("after", 300)
+    assert plain["sensor"] is True  # the runs of before keep their cache keys
+    kwargs = Config(white_balance=True, vignetting=0.3).env_kwargs("later", 300)
+    assert kwargs["sensor"] == SensorSpec(white_balance=True, vignetting=0.3)
+    keys = {Config(white_balance=w).env_kwargs("after", 300)["sensor"] for w in (False, True)}
+    assert len(keys) == 2
+    for changes, match in (
+        ({"vignetting": 1.0}, r"vignetting must be a number in \[0, 1\), got 1.0"),
+        ({"white_balance": True, "sensor": False}, "effects of the sensor: sensor=True"),
+        ({"vignetting": 0.2, "camera": "cylindrical"}, "needs the mirror camera"),
+        ({"white_balance": 1}, "white_balance must be True or False, got 1"),
+    ):
+        with pytest.raises((ValueError, TypeError), match=match):
+            dataclasses.replace(Config(), **changes).validate()

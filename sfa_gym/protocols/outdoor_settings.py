@@ -76,6 +76,11 @@ class Config:
     """the world's dynamics (sun, clouds, movers); False: a static world (ablation)"""
     sensor: bool = True
     """the camera's auto-exposure and pixel noise"""
+    white_balance: bool = False
+    """the camera's auto white balance too (sfa_gym.sim.camera.sensor.SensorSpec; needs sensor)"""
+    vignetting: float = 0.0
+    """share of the light the mirror camera's lens loses at the mirror's rim, in [0, 1) (0:
+    none; needs sensor and the mirror camera)"""
     vibration: bool = True
     """the sprung camera mast (False: a rigid one)"""
     textures: bool = False
@@ -137,9 +142,17 @@ class Config:
                 "they need dynamics=True"
             )
         self._validate_clock()
-        for name in ("dynamics", "sensor", "vibration", "textures"):
+        for name in ("dynamics", "sensor", "vibration", "textures", "white_balance"):
             if not isinstance(getattr(self, name), bool):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        if not is_number(self.vignetting) or not 0.0 <= self.vignetting < 1.0:
+            raise ValueError(f"vignetting must be a number in [0, 1), got {self.vignetting!r}")
+        if (self.white_balance or self.vignetting) and not self.sensor:
+            raise ValueError("white_balance and vignetting are effects of the sensor: sensor=True")
+        if self.vignetting and self.camera != "mirror":
+            raise ValueError(
+                f"vignetting {self.vignetting} needs the mirror camera, got camera={self.camera!r}"
+            )
         check_choice("camera", self.camera, Camera)
         check_choice("normalise", self.normalise, Normalisation)
         if not isinstance(self.train_also, tuple | list) or not all(
@@ -267,6 +280,12 @@ class Config:
             kwargs["mirror"] = None
         if self.textures:  # only when on: the flat world's runs keep their cache keys
             kwargs["textures"] = True
+        if self.white_balance or self.vignetting:  # likewise
+            from sfa_gym.sim.camera.sensor import SensorSpec
+
+            kwargs["sensor"] = SensorSpec(
+                white_balance=self.white_balance, vignetting=float(self.vignetting)
+            )
         if self.panorama is not None:
             from sfa_gym.sim.camera import PanoramaSpec
 
