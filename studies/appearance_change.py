@@ -33,6 +33,7 @@ import tyro
 from tqdm.auto import tqdm
 
 from sfa_gym.files import write_json_atomic
+from sfa_gym.image_statistics import grey as luma
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -53,8 +54,8 @@ class Args:
 
 
 def grey(panoramas: np.ndarray) -> np.ndarray:
-    """``(N, H, W, 3)`` uint8 -> ``(N, H, W)`` float32 grey levels (ITU-R 601 weights)."""
-    return panoramas.astype(np.float32) @ np.array([0.299, 0.587, 0.114], dtype=np.float32)
+    """``(N, H, W, 3)`` uint8 -> ``(N, H, W)`` grey levels 0-255 (the image statistics' luma)."""
+    return 255.0 * luma(panoramas)
 
 
 def aligned_change(a: np.ndarray, yaw_a: float, b: np.ndarray, yaw_b: float) -> float:

@@ -145,8 +145,7 @@ class Config:
         for name in ("dynamics", "sensor", "vibration", "textures", "white_balance"):
             if not isinstance(getattr(self, name), bool):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
-        if not is_number(self.vignetting) or not 0.0 <= self.vignetting < 1.0:
-            raise ValueError(f"vignetting must be a number in [0, 1), got {self.vignetting!r}")
+        self._sensor_spec()  # the sensor's own check of vignetting
         if (self.white_balance or self.vignetting) and not self.sensor:
             raise ValueError("white_balance and vignetting are effects of the sensor: sensor=True")
         if self.vignetting and self.camera != "mirror":
@@ -281,11 +280,7 @@ class Config:
         if self.textures:  # only when on: the flat world's runs keep their cache keys
             kwargs["textures"] = True
         if self.white_balance or self.vignetting:  # likewise
-            from sfa_gym.sim.camera.sensor import SensorSpec
-
-            kwargs["sensor"] = SensorSpec(
-                white_balance=self.white_balance, vignetting=float(self.vignetting)
-            )
+            kwargs["sensor"] = self._sensor_spec()
         if self.panorama is not None:
             from sfa_gym.sim.camera import PanoramaSpec
 
@@ -306,6 +301,12 @@ class Config:
         change = {"overcast": {"overcast": 1.0}, "other_day": {"day": spec.day + int(offset)}}
         spec = dataclasses.replace(spec, **change[kind])
         return {**kwargs, "start_hour": hour, "dynamics": spec}
+
+    def _sensor_spec(self) -> Any:
+        """The sensor of the runs with white balance or vignetting on (its fields checked)."""
+        from sfa_gym.sim.camera.sensor import SensorSpec
+
+        return SensorSpec(white_balance=self.white_balance, vignetting=self.vignetting)
 
     def _condition(self, name: str) -> tuple[Condition, float]:
         """The kind and offset of the condition ``name``: one of :meth:`offsets`, or any kind

@@ -118,20 +118,16 @@ class Sensor:
         self.gain = 1.0
         self.balance = np.ones(3)
 
-    def _lit(self, image: NDArray[np.uint8]) -> int:
-        """Pixels not black in every channel (outside a mirror's disc all are black)."""
-        lit = image[..., 0].copy()
-        for channel in range(1, image.shape[-1]):  # an OR per channel: 10x a reduce
-            lit |= image[..., channel]
-        return int(np.count_nonzero(lit))
-
     def _steady_gain(self, image: NDArray[np.uint8]) -> float:
         lo, hi = self.spec.gain_range
         # the meter ignores pixels black in every channel (outside a mirror's disc); they add
         # nothing to the sum, so the mean over the lit ones is the sum over the lit count (an
         # exact integer sum: the same number as the mean over a copy of the lit pixels)
         if image.ndim == 3:
-            count = self._lit(image) * image.shape[-1]
+            lit = image[..., 0].copy()
+            for channel in range(1, image.shape[-1]):  # an OR per channel: 10x a reduce
+                lit |= image[..., channel]
+            count = np.count_nonzero(lit) * image.shape[-1]
         else:
             count = np.count_nonzero(image)
         mean = max(int(image.sum(dtype=np.uint64)) / count if count else 0.0, 1.0)
