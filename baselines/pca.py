@@ -23,7 +23,7 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.exceptions import NotFittedError
 from tqdm.auto import tqdm
 
-from sfa_gym.plugins import Capabilities, check_views, iter_chunks
+from sfa_gym.plugins import Capabilities, check_panoramas, check_views, iter_chunks
 from sfa_gym.shrink import shrunk_rotations
 
 
@@ -160,16 +160,12 @@ class PCA(TransformerMixin, BaseEstimator):
         views come from a few shrunk copies of each panorama (:func:`sfa_gym.shrink.
         shrunk_rotations`, the same bytes as shrinking each view), so no view is built or
         sent to this worker; each panorama's views are projected together, as ``transform``
-        does when given them."""
+        does when given them. (Not ``rotation_indices``: a BLAS product's last bits can depend
+        on its row count, so projecting only some views could move the features.)"""
         if not hasattr(self, "pca_"):
             raise NotFittedError("PCA is not fitted yet; call fit(views) first")
-        panoramas = check_views(panoramas)
+        panoramas = check_panoramas(panoramas, self.input_shape_, "PCA")
         height, window = self.input_shape_[:2]
-        if panoramas.shape[1] != height or panoramas.shape[2] < window:
-            raise ValueError(
-                f"PCA was fitted on views of shape {self.input_shape_}; panoramas of shape "
-                f"{tuple(panoramas.shape[1:])} do not give such views"
-            )
         rows, cols = height // self.shrink, window // self.shrink
         shrunk = shrunk_rotations(panoramas, step, window, rows, cols)
         n, k = shrunk.shape[:2]

@@ -13,11 +13,11 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.exceptions import NotFittedError
 
-from sfa_gym.plugins import Capabilities, check_views
+from sfa_gym.plugins import Capabilities, check_panoramas, check_views
 from sfa_gym.shrink import shrunk_rotations
 
 
@@ -68,7 +68,9 @@ class RawPixels(TransformerMixin, BaseEstimator):
 
     @property
     def capabilities(self) -> Capabilities:
-        return Capabilities(regressor=self.regressor, transform_rotations=True)
+        return Capabilities(
+            regressor=self.regressor, transform_rotations=True, rotation_indices=True
+        )
 
     def fit(self, views: NDArray[np.uint8], sequence_ids: NDArray | None = None) -> RawPixels:
         """Record ``input_shape_`` (nothing to learn); ``views (N, H, W, 3)`` uint8."""
@@ -83,21 +85,18 @@ class RawPixels(TransformerMixin, BaseEstimator):
             raise NotFittedError("RawPixels is not fitted yet; call fit(views) first")
         return raw_pixels(views, self.height, self.width)
 
-    def transform_rotations(self, panoramas: NDArray[np.uint8], step: int) -> NDArray[np.float64]:
-        """Features of every ``step``-column rotated view of each panorama ``(L, H, W, 3)``
-        uint8, views as wide as the fitted ones: ``(L, W // step, height * width * 3)``, the
-        same values as ``transform`` of each view (:func:`sfa_gym.shrink.shrunk_rotations`:
-        no view is built or sent to this worker)."""
+    def transform_rotations(
+        self, panoramas: NDArray[np.uint8], step: int, indices: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """Features of the ``step``-column rotated views ``indices`` (all by default) of each
+        panorama ``(L, H, W, 3)`` uint8, views as wide as the fitted ones: ``(L, K', height *
+        width * 3)``, the same values as ``transform`` of each view
+        (:func:`sfa_gym.shrink.shrunk_rotations`: no view is built or sent to this worker)."""
         if not hasattr(self, "input_shape_"):
             raise NotFittedError("RawPixels is not fitted yet; call fit(views) first")
-        panoramas = check_views(panoramas)
+        panoramas = check_panoramas(panoramas, self.input_shape_, "RawPixels")
         window = self.input_shape_[1]
-        if panoramas.shape[1] != self.input_shape_[0] or panoramas.shape[2] < window:
-            raise ValueError(
-                f"RawPixels was fitted on views of shape {self.input_shape_}; panoramas of "
-                f"shape {tuple(panoramas.shape[1:])} do not give such views"
-            )
-        shrunk = shrunk_rotations(panoramas, step, window, self.height, self.width)
+        shrunk = shrunk_rotations(panoramas, step, window, self.height, self.width, indices)
         return shrunk.reshape(*shrunk.shape[:2], -1) / 255.0
 
 

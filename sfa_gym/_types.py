@@ -1,5 +1,5 @@
 """Array aliases shared across the package (shapes are in the docstrings that use them), and the
-one check of a stack of views that every consumer of views uses."""
+one check of a stack of views (and of panoramas for a fitted model) that every consumer uses."""
 
 from __future__ import annotations
 
@@ -46,5 +46,25 @@ def check_views(views: Any, name: str = "views", *, min_views: int = 1) -> NDArr
         raise ValueError(
             f"{name} must have shape (N, H, W, 3) with N >= {min_views} and H, W >= 1, "
             f"got {array.shape}"
+        )
+    return array
+
+
+def check_panoramas(panoramas: Any, input_shape: tuple[int, ...], who: str) -> NDArray[np.uint8]:
+    """``panoramas (L, H, W, 3)`` uint8 (:func:`check_views`, ``L = 0`` allowed) after checking
+    that they give the views of a model ``who`` fitted on ``input_shape (H, W_view, 3)``: the
+    same height and at least ``W_view`` columns.
+
+    Raises:
+        TypeError, ValueError: as :func:`check_views`; ValueError also for panoramas of another
+            height or narrower than the views (the message gives both shapes).
+    """
+    array = check_views(panoramas, "panoramas", min_views=0)
+    height, window = input_shape[:2]
+    if array.shape[1] != height or array.shape[2] < window:
+        raise ValueError(
+            f"{who} was fitted on views of shape {tuple(input_shape)}; panoramas of shape "
+            f"{tuple(array.shape[1:])} do not give such views (need height {height} and at "
+            f"least {window} columns)"
         )
     return array

@@ -35,6 +35,11 @@ class Capabilities:
     transform_rotations: bool = False
     """has ``transform_rotations(panoramas (L, H, W, 3), step) -> (L, W // step, k)``: the
     features of every ``step``-column rotation of each panorama, all at once"""
+    rotation_indices: bool = False
+    """its ``transform_rotations`` also takes ``indices`` (1-d ints in ``[0, W // step)``) and
+    returns only those rotations, ``(L, len(indices), k)``, the same values as picking them from
+    all: a method that computes each rotation on its own (the raw-pixel baseline) is
+    then asked only for the rotations a protocol scores (24 of 120 on the outdoor tracks)"""
     rotation_averaged: bool = False
     """has ``rotation_averaged(panoramas, step, window) -> (L, k)``: its features of a place are a
     function of another model's rotation averages (:class:`~sfa_gym.features.EmbeddedFeatures`)"""
@@ -76,6 +81,10 @@ def get_capabilities(method: Any) -> Capabilities:
     if not isinstance(declared, Capabilities):
         raise TypeError(
             f"{name}: capabilities must be a sfa_gym.capabilities.Capabilities, got {declared!r}"
+        )
+    if declared.rotation_indices and not declared.transform_rotations:
+        raise TypeError(
+            f"{name} declares the capability rotation_indices without transform_rotations"
         )
     for field in dataclasses.fields(declared):
         promised = _PROMISED.get(field.name)

@@ -67,6 +67,8 @@ when a parameter decides it), a :class:`~sfa_gym.capabilities.Capabilities` with
 - ``fit_rotations``: has ``fit_rotations(panoramas)``, fitting on every rotation of each panorama
   with its own ``rotation``;
 - ``transform_rotations``: has ``transform_rotations(panoramas, step) -> (L, W // step, k)``;
+- ``rotation_indices``: its ``transform_rotations(panoramas, step, indices)`` also takes the
+  rotations a protocol scores and computes only those, ``(L, len(indices), k)``;
 - ``rotation_invariant``: column statistics; each full-width panorama is transformed once;
 - ``regressor``: the regression the features are paired with (default ``"linear"``);
 - ``extra_regressors``: regressions ``sfa-gym localize`` reports besides those two.
@@ -115,7 +117,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sfa_gym._json_types import dataclass_from_json
-from sfa_gym._types import check_views
+from sfa_gym._types import check_panoramas, check_views
 from sfa_gym.capabilities import Capabilities, get_capabilities
 from sfa_gym.data import checkout_root
 from sfa_gym.plugin_files import (
@@ -138,6 +140,7 @@ __all__ = [
     "Plugin",
     "PluginError",
     "checkout_root",
+    "check_panoramas",
     "check_views",
     "close_plugins",
     "default_plugin_folder",

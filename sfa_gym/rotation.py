@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "Rotation",
+    "check_indices",
     "check_step",
     "check_window",
     "n_rotations",
@@ -83,7 +84,13 @@ def n_rotations(width: int, step: int = 5) -> int:
     return int(width) // check_step(int(width), step)
 
 
-def _indices(width: int, step: int, indices: ArrayLike | None) -> NDArray[np.intp]:
+def check_indices(width: int, step: int, indices: ArrayLike | None) -> NDArray[np.intp]:
+    """Rotation indices ``indices`` (all ``K = width // step`` for None) as ``intp`` after
+    checking that they are a 1-d integer array in ``[0, K)``.
+
+    Raises:
+        ValueError: another shape or type, or an index out of range; the message names both.
+    """
     n = n_rotations(width, step)
     if indices is None:
         return np.arange(n, dtype=np.intp)
@@ -101,7 +108,7 @@ def rotation_angles(
 ) -> NDArray[np.float64]:
     """Relative orientations ``phi_k = 2*pi*k*step/width`` (radians) of views ``indices``
     (all ``K`` by default), ``(len(indices),)``."""
-    k = _indices(width, step, indices).astype(np.float64)
+    k = check_indices(width, step, indices).astype(np.float64)
     return 2.0 * np.pi * k * step / width
 
 
@@ -111,7 +118,7 @@ def rotation_columns(
     """Panorama columns of each view: ``(len(indices), window)``, row ``i`` holds
     ``(k_i * step + arange(window)) % width`` for ``k_i = indices[i]`` (all ``K`` views by
     default)."""
-    k = _indices(width, step, indices)
+    k = check_indices(width, step, indices)
     window = check_window(width, window)
     return (k[:, None] * step + np.arange(window)[None, :]) % width
 
@@ -152,7 +159,7 @@ def rotated_views(
             f"panoramas must have shape (H, W, C) or (N, H, W, C), got shape {panoramas.shape}"
         )
     width = panoramas.shape[-2]
-    k = _indices(width, step, indices)
+    k = check_indices(width, step, indices)
     window = check_window(width, window)
     batch = panoramas if panoramas.ndim == 4 else panoramas[None]
     # Append the first window-1 columns, so that view k is the plain slice of columns

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from sfa_gym.rotation import check_step, check_window, rotated_views
+from sfa_gym.rotation import check_indices, check_step, check_window, rotated_views
 
 __all__ = ["area_shrink", "shrunk_rotations"]
 
@@ -30,34 +30,43 @@ def area_shrink(views: NDArray[np.uint8], rows: int, cols: int) -> NDArray[np.ui
 
 
 def shrunk_rotations(
-    panoramas: NDArray[np.uint8], step: int, window: int | None, rows: int, cols: int
+    panoramas: NDArray[np.uint8],
+    step: int,
+    window: int | None,
+    rows: int,
+    cols: int,
+    indices: ArrayLike | None = None,
 ) -> NDArray[np.uint8]:
-    """Every ``step``-column rotated view of each panorama, ``window`` columns wide (None: the
-    full width), shrunk to ``rows x cols`` by area averaging (module docstring).
+    """The ``step``-column rotated views ``indices`` (all by default) of each panorama,
+    ``window`` columns wide (None: the full width), shrunk to ``rows x cols`` by area averaging
+    (module docstring).
 
     Args:
         panoramas: ``(L, H, W, 3)`` uint8.
         step: columns between rotations (divides ``W``).
         window: the views' width (None: ``W``).
         rows, cols: the shrunk size (at most the view's).
+        indices: which rotations ``k`` (1-d ints in ``[0, W // step)``; None: every one).
 
     Returns:
-        ``(L, W // step, rows, cols, 3)`` uint8, view ``k`` rotated by ``k * step`` columns
-        (as :func:`sfa_gym.rotation.rotated_views`).
+        ``(L, K', rows, cols, 3)`` uint8, view ``i`` rotated by ``indices[i] * step`` columns
+        (as :func:`sfa_gym.rotation.rotated_views`); the same bytes as picking ``indices``
+        from all views, without shrinking the others.
     """
     n, height, width, _ = panoramas.shape
     step = check_step(width, step)
     window = check_window(width, window)
+    picked = check_indices(width, step, indices)
     if not (1 <= rows <= height and 1 <= cols <= window):
         raise ValueError(f"cannot shrink {height} x {window} views to {rows} x {cols}")
-    k = width // step
+    k = len(picked)
     factor = window // cols
     if window % cols or width % factor:
-        views = rotated_views(panoramas, step=step, window=window)[0]
+        views = rotated_views(panoramas, step=step, window=window, indices=picked)[0]
         return area_shrink(views.reshape(-1, height, window, 3), rows, cols).reshape(
             n, k, rows, cols, 3
         )
-    offsets = np.arange(k) * step
+    offsets = picked * step
     out = np.empty((n, k, rows, cols, 3), dtype=np.uint8)
     for phase in np.unique(offsets % factor):
         views = np.flatnonzero(offsets % factor == phase)

@@ -86,7 +86,9 @@ def test_the_capabilities_of_each_built_in_method():
         "fft_magnitude": Capabilities(
             rotation_invariant=True, regressor="linear", extra_regressors=("map",)
         ),
-        "raw_pixels": Capabilities(regressor="knn", transform_rotations=True),
+        "raw_pixels": Capabilities(
+            regressor="knn", transform_rotations=True, rotation_indices=True
+        ),
         "pca": Capabilities(
             regressor="quadratic", extra_regressors=("map",), transform_rotations=True
         ),
@@ -106,6 +108,9 @@ def test_a_capability_without_its_method_is_refused():
         capabilities = Capabilities(transform_rotations=True)
 
     with pytest.raises(TypeError, match="liar declares the capability transform_rotations"):
+        get_capabilities(Liar())
+    Liar.capabilities = Capabilities(rotation_indices=True)
+    with pytest.raises(TypeError, match="rotation_indices without transform_rotations"):
         get_capabilities(Liar())
     Liar.capabilities = {"rotation_invariant": True}  # type: ignore[assignment]
     with pytest.raises(TypeError, match="capabilities must be a sfa_gym.capabilities"):
@@ -240,6 +245,13 @@ def test_transform_rotations_gives_the_features_of_each_rotated_view(
     assert fast.shape == each.shape and np.array_equal(fast, each)
     with pytest.raises(ValueError, match="do not give such views"):
         method.transform_rotations(panoramas[:, :-1], step)
+    if get_capabilities(method).rotation_indices:
+        # only the rotations asked for, in the order asked: the same values as picking them
+        picked = np.array([3, 0, fast.shape[1] - 1, 3])
+        found = method.transform_rotations(panoramas, step, picked)
+        assert np.array_equal(found, fast[:, picked])
+        with pytest.raises(ValueError, match=r"indices must be a 1-d array of view indices"):
+            method.transform_rotations(panoramas, step, np.array([fast.shape[1]]))
 
 
 def test_pca_bad_input_is_refused_clearly():

@@ -237,3 +237,28 @@ def test_the_auto_network_is_the_preset_made_for_the_panoramas():
             np.zeros((4, 60, 600, 3), dtype=np.uint8), step=5
         )
     assert load_method_plugin("sfa")().settings.network == "auto"
+
+
+def test_a_method_with_rotation_indices_is_asked_only_for_the_scored_rotations(panoramas):
+    from sfa_gym.plugins import load_method
+
+    raw = load_method("raw_pixels", {"height": 2, "width": 8}, isolated=False)
+    asked = []
+
+    class Counting(type(raw)):
+        def transform_rotations(self, panoramas, step, indices=None):
+            found = super().transform_rotations(panoramas, step, indices)
+            asked.append(found.shape[1])
+            return found
+
+    rotation, picked = Rotation(step=4), np.array([9, 0, 4])
+    method = fit_method(Counting(**raw.get_params()), panoramas, rotation)
+    some = view_features(method, panoramas, rotation, picked, progress=False)
+    assert set(asked) == {3}  # never all ten
+    every = view_features(method, panoramas, rotation, progress=False)
+    np.testing.assert_array_equal(some, every[:, picked])
+    # the same through the plug-in's worker process: the indices cross the boundary
+    with load_method("raw_pixels", {"height": 2, "width": 8}) as isolated:
+        fit_method(isolated, panoramas, rotation)
+        across = view_features(isolated, panoramas, rotation, picked, progress=False)
+    np.testing.assert_array_equal(across, some)

@@ -28,6 +28,10 @@ def test_shrunk_rotations_equal_each_view_shrunk(size, step, window, shrunk):
     slow = area_shrink(views.reshape(-1, *views.shape[2:]), *shrunk)
     assert fast.shape == (3, size[1] // step, *shrunk, 3)
     assert np.array_equal(fast, slow.reshape(fast.shape))
+    # some rotations only, repeated and out of order: the same bytes as picking them
+    picked = np.array([fast.shape[1] - 1, 2, 2, 0])
+    found = shrunk_rotations(panoramas, step, window, *shrunk, picked)
+    assert np.array_equal(found, fast[:, picked])
 
 
 def test_shrunk_rotations_refuse_a_larger_size():

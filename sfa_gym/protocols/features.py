@@ -47,10 +47,10 @@ def view_features(
     A method with the capability ``transform_rotations`` computes all views itself
     (hierarchical SFA exploits that a rotation permutes its layer-1 patches, so all 120 views
     of a 600 px panorama cost less than 24 views transformed one by one) and the ``indices``
-    are picked from them. A method with the capability ``rotation_invariant`` (a column
-    statistic: the features of a circular shift of the whole panorama are its own) transforms
-    each panorama once when the views are full width. Otherwise the method transforms every
-    view asked for.
+    are picked from them; with the capability ``rotation_indices`` it computes only those. A
+    method with the capability ``rotation_invariant`` (a column statistic: the features of a
+    circular shift of the whole panorama are its own) transforms each panorama once when the
+    views are full width. Otherwise the method transforms every view asked for.
     """
     width = panoramas.shape[2]
     n_views = rotation.n_views(width) if indices is None else len(indices)
@@ -65,11 +65,15 @@ def view_features(
         features = np.concatenate(out).astype(np.float64)
         return np.repeat(features[:, None], n_views, axis=1)
     shortcut = capabilities.transform_rotations
-    per_block = max(1, VIEWS_PER_BLOCK // (rotation.n_views(width) if shortcut else n_views))
+    picks = indices is not None and capabilities.rotation_indices
+    computed = rotation.n_views(width) if shortcut and not picks else n_views
+    per_block = max(1, VIEWS_PER_BLOCK // computed)
     out = []
     for i in tqdm(range(0, len(panoramas), per_block), desc=desc, disable=not progress):
         block = np.asarray(panoramas[i : i + per_block])
-        if shortcut:
+        if picks:
+            features = method.transform_rotations(block, rotation.step, indices)
+        elif shortcut:
             features = method.transform_rotations(block, rotation.step)
             if indices is not None:
                 features = np.asarray(features)[:, indices]

@@ -272,11 +272,20 @@ class IsolatedMethod(_Isolated):
         found = self._call("transform", self.limits.transform, views)
         return _features(found, (len(views),), self.name, "transform(views)")
 
-    def transform_rotations(self, panoramas: ArrayLike, step: int) -> NDArray[Any]:
+    def transform_rotations(
+        self, panoramas: ArrayLike, step: int, indices: ArrayLike | None = None
+    ) -> NDArray[Any]:
         panoramas = np.asarray(panoramas)
-        found = self._call("transform_rotations", self.limits.transform, panoramas, int(step))
-        shape = (len(panoramas), panoramas.shape[2] // int(step))
-        return _features(found, shape, self.name, "transform_rotations(panoramas, step)")
+        if indices is None:  # the two-argument call every plug-in with the capability takes
+            found = self._call("transform_rotations", self.limits.transform, panoramas, int(step))
+            shape = (len(panoramas), panoramas.shape[2] // int(step))
+            return _features(found, shape, self.name, "transform_rotations(panoramas, step)")
+        picked = np.asarray(indices, dtype=np.int64)
+        found = self._call(
+            "transform_rotations", self.limits.transform, panoramas, int(step), picked
+        )
+        shape = (len(panoramas), len(picked))
+        return _features(found, shape, self.name, "transform_rotations(panoramas, step, indices)")
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         return dict(self._params)

@@ -53,7 +53,7 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils import Tags
 from sklearn.utils.validation import check_is_fitted
 
-from sfa_gym._types import check_views
+from sfa_gym._types import check_panoramas, check_views
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.rotation import check_window, n_rotations, rotation_columns
 from sfa_gym.sfa._heap import kept_heap
@@ -468,14 +468,9 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
             ``(L, K, n_outputs)`` float64.
         """
         params = self._check_fitted()
-        panoramas = check_views(panoramas, "panoramas", min_views=0)
+        panoramas = check_panoramas(panoramas, self.input_shape_, "HierarchicalSFA")
         n_loc, h, w, _ = panoramas.shape
         window = self.input_shape_[1]
-        if h != self.input_shape_[0] or w < window:
-            raise ValueError(
-                f"panoramas of shape {panoramas.shape[1:]} do not fit a model of input shape "
-                f"{self.input_shape_}: need the same height and at least {window} columns"
-            )
         n_rot = n_rotations(w, step)
         out = np.empty((n_loc, n_rot, self.n_outputs))
         specs = [p.spec for p in params]
