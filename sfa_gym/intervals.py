@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -30,6 +31,7 @@ __all__ = [
     "MIN_SEEDS",
     "bootstrap_interval",
     "format_interval",
+    "mean_entry",
     "t_interval",
     "wilson",
 ]
@@ -83,6 +85,18 @@ def t_interval(
     half = float(stats.t.ppf(0.5 + level / 2, x.size - 1)) * float(x.std(ddof=1))
     half /= math.sqrt(x.size)
     return max(low, mean - half), min(high, mean + half)
+
+
+def mean_entry(values: ArrayLike, low: float = 0.0, digits: int = 4) -> dict[str, Any]:
+    """``{"mean", "interval"}`` of ``values`` over seeds (errors: ``low`` 0), rounded to
+    ``digits``: the t interval (:func:`t_interval`) from :data:`MIN_SEEDS` values on, else
+    None. The studies' tables read these entries."""
+    x = np.asarray(values, dtype=np.float64)
+    interval = t_interval(x, low=low) if x.size >= MIN_SEEDS else None
+    return {
+        "mean": round(float(x.mean()), digits),
+        "interval": None if interval is None else [round(v, digits) for v in interval],
+    }
 
 
 def bootstrap_interval(

@@ -32,7 +32,7 @@ import tyro
 from tqdm.auto import tqdm
 
 from sfa_gym.files import write_json_atomic
-from sfa_gym.intervals import MIN_SEEDS, t_interval
+from sfa_gym.intervals import mean_entry
 from sfa_gym.protocols import grid
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.protocols.slow_features import SlowFeatureMethod
@@ -88,22 +88,11 @@ def run_row(name: str, world_seed: int, runs: RunCache) -> dict[str, Any]:
 
 def summarise(runs: list[dict[str, Any]]) -> dict[str, Any]:
     """Per regression, x and y: the mean over the worlds, with its 95 % t interval from
-    ``MIN_SEEDS`` worlds on (else None)."""
-    out: dict[str, Any] = {}
-    for regressor in ("linear", "quadratic"):
-        per_axis = np.array([r[regressor] for r in runs])  # (worlds, 2)
-        out[regressor] = [
-            {
-                "mean": round(float(values.mean()), 4),
-                "interval": (
-                    [round(v, 4) for v in t_interval(values, low=0.0)]
-                    if len(values) >= MIN_SEEDS
-                    else None
-                ),
-            }
-            for values in per_axis.T
-        ]
-    return out
+    ``MIN_SEEDS`` worlds on (else None): :func:`~sfa_gym.intervals.mean_entry`."""
+    return {
+        regressor: [mean_entry(values) for values in np.array([r[regressor] for r in runs]).T]
+        for regressor in ("linear", "quadratic")
+    }
 
 
 def main(args: Args) -> dict[str, Any]:

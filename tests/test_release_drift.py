@@ -1,0 +1,67 @@
+"""The release-drift study's pieces: the release's camera through the render cache, the
+release's results read as written, the summary over worlds (the runs themselves are the study's:
+``python -m studies.release_drift``)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from sfa_gym.recording.cache import RunCache, RunRequest
+from sfa_gym.recording.drivers import GridPositions
+from sfa_gym.sim.camera import PanoramaSpec
+from sfa_gym.sim.env import OmniRoverEnv
+from studies.release_drift import ReleaseCamera, release_world, summarise
+
+
+def test_the_release_camera_renders_views_that_turn_with_the_rover(tmp_path):
+    runs = RunCache(tmp_path)
+    request = RunRequest("paper_sim", 3, (12, 48), GridPositions(n=2, seed=1), seed=1)
+    today = runs.get(request)
+    release = ReleaseCamera(runs).get(request)
+    assert len(list(tmp_path.glob("*.run"))) == 2  # a key of its own, not today's entry
+    np.testing.assert_array_equal(release.positions, today.positions)
+    assert not np.array_equal(release.panoramas[:], today.panoramas[:])
+    # the release's camera is PanoramaSpec(views="rover") at the same size and pose
+    spec = PanoramaSpec(width=48, height=12, views="rover")
+    env = OmniRoverEnv("paper_sim", world_seed=3, panorama=spec)
+    try:
+        pose = tuple(release.poses[0])
+        obs, _ = env.reset(options={"pose": pose})
+    finally:
+        env.close()
+    np.testing.assert_array_equal(obs, release.panoramas[0])
+
+
+def _results(sfa_map, fft_map):
+    def regressions(value):
+        part = {"mae_percent": value}
+        return {r: {"visited": part, "excluded": part} for r in ("map", "linear")}
+
+    return {
+        "methods": {
+            "hierarchical_sfa": regressions(sfa_map),
+            "fft_magnitude": regressions(fft_map),
+        }
+    }
+
+
+def test_the_release_results_are_read_as_written_and_summarised(tmp_path):
+    worlds = []
+    for seed, (sfa, fft) in enumerate([([2.0, 3.0], [1, 1]), ([3.0, 3.0], [1, 2])]):
+        folder = tmp_path / f"old-{seed}"
+        folder.mkdir()
+        (folder / "results.json").write_text(json.dumps(_results(sfa, fft)))
+        worlds.append(release_world(folder))
+    assert worlds[0]["sfa"]["map"]["visited"] == [2.0, 3.0]
+    assert worlds[1]["fft_magnitude"]["linear"]["excluded"] == [1, 2]
+    found = summarise(worlds)
+    assert found["sfa"]["map"]["visited"] == [
+        {"mean": 2.5, "interval": None},  # two worlds: no interval
+        {"mean": 3.0, "interval": None},
+    ]
+    three = summarise([*worlds, worlds[0]])["fft_magnitude"]["map"]["excluded"]
+    assert three[0] == {"mean": 1.0, "interval": [1.0, 1.0]}
+    assert three[1]["interval"] == pytest.approx([0.0, 2.7675], abs=1e-4)
