@@ -174,3 +174,33 @@ def test_publish_gathers_a_run_into_one_file_the_table_reads_alike(tmp_path, cap
     twin.write_text(json.dumps(_result("few_labels", "mine", {100: 9.0})))
     assert main(args) != 0
     assert "few_labels" in capsys.readouterr().err
+
+
+def test_navigation_spl_is_gathered_checked_and_shown_beside_the_success_rate(tmp_path, capsys):
+    results = tmp_path / "results"
+    result = _result("nav_open", "mine", {100: 0.75, 101: 0.5})
+    result["score"] = summarize([0.75, 0.5], higher_is_better=True)
+    for task, spl in zip(result["tasks"], (0.5, 0.25), strict=True):
+        task["scores"]["spl"] = spl
+    path = results / "nav_open" / "mine.quick.json"
+    path.parent.mkdir(parents=True)
+    path.write_text(json.dumps(result))
+    out = tmp_path / "published" / "quick.json"
+    out.parent.mkdir()
+    assert main(["leaderboard", "publish", "--results", str(results), "--out", str(out)]) == 0
+    entry = json.loads(out.read_text())["results"][0]
+    assert entry["spl"] == {"mean": 0.375, "per_world_seed": {"100": 0.5, "101": 0.25}}
+    capsys.readouterr()
+    assert main(["leaderboard", "table", "--results", str(out.parent), "--markdown"]) == 0
+    table = capsys.readouterr().out
+    assert "Navigation: SPL" in table
+    assert "| mine | yours | 0.38 |" in table
+    # an SPL outside [0, 1] is refused by name, in a result file and in a gathered entry
+    result["tasks"][1]["scores"]["spl"] = 1.5
+    path.write_text(json.dumps(result))
+    with pytest.raises(ValueError, match=r"task 1: 'scores.spl' is 1.5; expected \[0, 1\]"):
+        load_results(results)
+    entry["spl"] = [0.5]
+    out.write_text(json.dumps({"results": [entry]}))
+    with pytest.raises(ValueError, match=r"'spl' is \[0.5\]; expected"):
+        load_results(out.parent)

@@ -120,6 +120,29 @@ def test_board_intervals_and_seconds_come_from_the_file():
     assert seconds[3] == "| these tracks, min | 0 | 0 |"
 
 
+def test_navigation_controllers_show_success_and_spl_from_the_file():
+    from sfa_gym.report.formatters import nav_controllers_table
+
+    def record(method, track, seeds, spl):
+        score = {"mean": sum(seeds) / len(seeds), "ci95": None, "higher_is_better": True}
+        per_seed = {str(100 + i): v for i, v in enumerate(seeds)}
+        return {"track": track, "track_version": 3, "method": method, "score": score,
+                "per_world_seed": per_seed, "spl": {"mean": spl, "per_world_seed": {}}}  # fmt: skip
+
+    files = [
+        {"results": [record("sfa", "nav_open", [0.9, 0.8], 0.7), {"track": "x", "method": "y"}]},
+        {"results": [record("band_means+alv", "nav_maze", [0.5, 0.5, 0.5], 0.25)]},
+    ]
+    lines = nav_controllers_table(files, {"methods": "band_means+alv,sfa"}).splitlines()
+    assert lines[0] == (
+        "| method | `nav_open` success | `nav_open` SPL | `nav_maze` success | `nav_maze` SPL |"
+    )
+    assert lines[2] == "| band_means+alv | - | - | 0.50 [0.50, 0.50] | 0.25 |"
+    assert lines[3] == "| sfa | 0.85 (n=2) | 0.70 | - | - |"
+    with pytest.raises(ValueError, match="no navigation result with an SPL"):
+        nav_controllers_table([{"results": [{"track": "x", "method": "y"}]}], {})
+
+
 @pytest.mark.parametrize(
     ("spec", "message"),
     [

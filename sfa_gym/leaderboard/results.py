@@ -30,7 +30,8 @@ seed.
 The committed reference results (:func:`reference_folder`, ``published/leaderboard/``) may also
 be *gathered* files: ``{"description", "results": [...]}`` with one summary per track and method
 (``track``, ``track_version``, ``quick``, ``method``, ``score``, ``per_world_seed``, ``parts``,
-``git_commit``, ``versions``, ``fingerprints`` (``{world seed: fingerprint}``), ...;
+``git_commit``, ``versions``, ``fingerprints`` (``{world seed: fingerprint}``), navigation's
+``spl`` (``{"mean", "per_world_seed"}``), ...;
 :func:`gathered_entry` writes one). :func:`load_results` reads both kinds into the shape of a
 result file, and the table shows each row's source: your results beside the reference ones.
 
@@ -79,6 +80,7 @@ __all__ = [
     "load_results",
     "make_result",
     "mean_parts",
+    "navigation_spl",
     "reference_folder",
     "result_path",
     "summarize",
@@ -210,6 +212,12 @@ def _from_gathered(entry: Any, where: str, source: str) -> dict[str, Any]:
     if not all(isinstance(k, str) and k.lstrip("-").isdigit() for k in seeds):
         raise ResultError(f"{where}: 'per_world_seed' has keys {list(seeds)}; expected seeds")
     fingerprints = entry.get("fingerprints") or {}
+    found_spl = entry.get("spl")
+    if found_spl is not None and not (
+        isinstance(found_spl, dict) and isinstance(found_spl.get("per_world_seed"), dict)
+    ):
+        raise ResultError(f"{where}: 'spl' is {found_spl!r}; expected {{'mean', 'per_world_seed'}}")
+    spl = {} if found_spl is None else found_spl["per_world_seed"]
     return {
         "track": {
             "name": entry["track"],
@@ -223,7 +231,8 @@ def _from_gathered(entry: Any, where: str, source: str) -> dict[str, Any]:
             {
                 "world_seed": int(seed),
                 "scores": {"score": value}
-                | ({"fingerprint": fingerprints[seed]} if seed in fingerprints else {}),
+                | ({"fingerprint": fingerprints[seed]} if seed in fingerprints else {})
+                | ({"spl": spl[seed]} if seed in spl else {}),
             }
             for seed, value in seeds.items()
         ],
@@ -258,6 +267,7 @@ def gathered_entry(result: dict[str, Any]) -> dict[str, Any]:
         "score": result["score"],
         "per_world_seed": {str(t["world_seed"]): t["scores"]["score"] for t in tasks},
         "parts": mean_parts(result),
+        **({"spl": spl} if (spl := navigation_spl(result)) is not None else {}),
         "task_seconds": [t.get("seconds") for t in tasks],
         "task_phases": [t.get("phases") for t in tasks],
         "result_sha256": result.get("content_sha256"),
@@ -382,6 +392,17 @@ def _read_file(path: Path, source: str, skipped: list[str] | None) -> list[dict[
     data["_file"] = str(path)
     data["_source"] = source
     return [data]
+
+
+def navigation_spl(result: dict[str, Any]) -> dict[str, Any] | None:
+    """A navigation result's SPL (success weighted by path length, reported beside the success
+    rate): ``{"mean", "per_world_seed": {seed: spl}}``; None when a task has none (other
+    tracks)."""
+    tasks = result["tasks"]
+    if not tasks or not all("spl" in task["scores"] for task in tasks):
+        return None
+    per_seed = {str(t["world_seed"]): float(t["scores"]["spl"]) for t in tasks}
+    return {"mean": float(np.mean(list(per_seed.values()))), "per_world_seed": per_seed}
 
 
 def mean_parts(result: dict[str, Any]) -> dict[str, float] | None:

@@ -22,7 +22,13 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 from sfa_gym.intervals import format_interval
-from sfa_gym.leaderboard.results import REFERENCE, YOURS, load_results, mean_parts
+from sfa_gym.leaderboard.results import (
+    REFERENCE,
+    YOURS,
+    load_results,
+    mean_parts,
+    navigation_spl,
+)
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -310,10 +316,34 @@ def write_csv(
     return rows
 
 
+def _spl_table(board: Board) -> list[str]:
+    """Markdown lines: the navigation tracks' SPL (success weighted by path length), the mean over
+    the world seeds, a column per navigation track; none when no result has it."""
+    spl = {
+        t: {row: found for row, r in board.cells[t].items() if (found := navigation_spl(r))}
+        for t in board.tracks
+    }
+    tracks = [t for t in board.tracks if spl[t]]
+    if not tracks:
+        return []
+    lines = [
+        "",
+        "Navigation: SPL, success weighted by the shortest path's length over the driven one "
+        "(mean over the world seeds)",
+        "",
+        "| method | source | " + " | ".join(tracks) + " |",
+        "|---" * (len(tracks) + 2) + "|",
+    ]
+    for row in (row for row in board.rows if any(row in spl[t] for t in tracks)):
+        cells = [f"{spl[t][row]['mean']:.2f}" if row in spl[t] else "-" for t in tracks]
+        lines.append(f"| {row[0]} | {row[1]} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def detail_tables(board: Board) -> list[str]:
-    """Markdown lines below the score table: the parts of the outdoor tracks' scores, and each
-    track's version, world seeds and commit (per source)."""
-    lines = _parts_tables(board)
+    """Markdown lines below the score table: the parts of the outdoor tracks' scores, the
+    navigation tracks' SPL, and each track's version, world seeds and commit (per source)."""
+    lines = _parts_tables(board) + _spl_table(board)
     lines += ["", "| track | source | version | world seeds | commit |", "|---|---|---|---|---|"]
     for t in board.tracks:
         for source in dict.fromkeys(row[1] for row in board.rows if row in board.cells[t]):

@@ -177,6 +177,11 @@ def check_result(result: dict[str, Any], where: str) -> dict[str, Any]:
         values.append(_get(f"{where}, task {i}", task, "scores.score", "number"))
     if len(set(seeds)) < len(seeds):
         raise ResultError(f"{where}: world seeds {seeds} repeat")
+    for i, task in enumerate(tasks):  # navigation's SPL, which the table shows beside
+        if "spl" in task["scores"]:
+            spl = _get(f"{where}, task {i}", task, "scores.spl", "number")
+            if not 0.0 <= spl <= 1.0:
+                raise ResultError(f"{where}, task {i}: 'scores.spl' is {spl!r}; expected [0, 1]")
     # what else the table reads: each part's score, the recorded versions
     parts = [(f"{where}, task {i}", t["scores"].get("parts")) for i, t in enumerate(tasks)]
     for place, found in [*parts, (where, result.get("parts"))]:

@@ -28,6 +28,7 @@ __all__ = [
     "descent_bound_table",
     "equivariance_table",
     "leaderboard_timings_table",
+    "nav_controllers_table",
     "nav_sets_table",
     "nav_steps_table",
     "outdoor_cost_table",
@@ -95,6 +96,34 @@ def board_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str
                 text = f"{r['score']['mean']:.2f}"
                 bold = f"**{text}**" if f"{best:.2f}" == text else text
                 row.append(f"{bold} {_interval(r)}" if options.get("intervals") == "1" else bold)
+        lines.append(_row(row))
+    return "\n".join(lines)
+
+
+def nav_controllers_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """Navigation tracks' success rate and SPL per method (a label ``method+controller`` for a
+    controller plug-in on a method's field), from board files: a row per method, two columns per
+    track. Options ``tracks=a,b`` and ``methods=a,b`` choose and order them (default: every
+    navigation result in the files)."""
+    records = [r for r in _records(files, "nav-controllers") if r.get("spl") is not None]
+    if not records:
+        raise ValueError("nav-controllers: no navigation result with an SPL in the files")
+    tracks = _split(options.get("tracks")) or list(dict.fromkeys(r["track"] for r in records))
+    methods = _split(options.get("methods")) or list(dict.fromkeys(r["method"] for r in records))
+    cells = {(r["track"], r["method"]): r for r in records}
+    lines = _head(["method", *(f"`{t}` {what}" for t in tracks for what in ("success", "SPL"))])
+    for m in methods:
+        row = [m]
+        for t in tracks:
+            r = cells.get((t, m))
+            row += (
+                ["-", "-"]
+                if r is None
+                else [
+                    f"{r['score']['mean']:.2f} {_interval(r)}",
+                    f"{r['spl']['mean']:.2f}",
+                ]
+            )
         lines.append(_row(row))
     return "\n".join(lines)
 

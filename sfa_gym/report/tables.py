@@ -64,6 +64,7 @@ GENERATORS: dict[str, Generator] = {
     "navigation": _navigation,
     "board": formatters.board_table,
     "board-parts": formatters.board_parts_table,
+    "nav-controllers": formatters.nav_controllers_table,
     "board-seconds": formatters.board_seconds_table,
     "board-time": formatters.board_time_table,
     "quick-vs-full": formatters.quick_vs_full_table,
@@ -82,7 +83,9 @@ GENERATORS: dict[str, Generator] = {
 """Formatters by the name a marker gives: ``localization`` (a localization protocol's
 ``results.json``, :func:`sfa_gym.experiments.report.format_table`), ``navigation`` (the
 navigation protocol's ``results.json``), ``board``, ``board-parts`` and ``board-seconds``
-(the leaderboard's reference board), ``board-time`` (a sweep's time per track), ``nav-sets``
+(the leaderboard's reference board), ``nav-controllers`` (success and SPL of navigation
+results, controllers beside the gradient controller), ``board-time`` (a sweep's time per
+track), ``nav-sets``
 (navigation studies' episode sets),
 ``quick-vs-full`` (the quick board's ranks against the full one's), ``descent-bound``,
 ``nav-steps``, ``outdoor-cost`` (also the textures' cost per step), ``image-statistics``,
