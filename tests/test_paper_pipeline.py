@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from sfa_gym.report.formatters import paper_pipeline_table
+from sfa_gym.report.study_formatters import paper_pipeline_table
 from studies.paper_pipeline import ROWS, Args, main, summarise
 
 

@@ -65,3 +65,29 @@ def test_the_release_results_are_read_as_written_and_summarised(tmp_path):
     three = summarise([*worlds, worlds[0]])["fft_magnitude"]["map"]["excluded"]
     assert three[0] == {"mean": 1.0, "interval": [1.0, 1.0]}
     assert three[1]["interval"] == pytest.approx([0.0, 2.7675], abs=1e-4)
+
+
+def test_the_table_shows_each_code_camera_and_regression_from_the_file():
+    from sfa_gym.report.study_formatters import release_drift_table
+
+    def entries(x, y):
+        return [{"mean": x, "interval": [x - 1, x + 1]}, {"mean": y, "interval": None}]
+
+    def method(columns):
+        return {c: {"visited": entries(1.0, 2.0), "excluded": entries(5.0, 6.0)} for c in columns}
+
+    today = {"sfa": method(("map", "map_plain", "linear"))}
+    today["fft_magnitude"] = today["sfa"]
+    release = {"sfa": method(("map", "linear")), "fft_magnitude": method(("map", "linear"))}
+    data = {"rows": {"compass": today, "release": release}}
+    lines = release_drift_table([data], {}).splitlines()
+    assert len(lines) == 2 + 2 + 3  # the release's two regressions, today's three
+    assert lines[2] == (
+        "| release (`60d3351`) | turn with the rover | map decoder, no penalty "
+        "| 1.00 [0.00, 2.00] | 2.00 | 1.00 [0.00, 2.00] | 2.00 |"
+    )
+    assert lines[4].startswith("| today | compass directions | map decoder, penalty chosen |")
+    excluded = release_drift_table([data], {"part": "excluded"}).splitlines()
+    assert excluded[2].endswith("| 5.00 [4.00, 6.00] | 6.00 | 5.00 [4.00, 6.00] | 6.00 |")
+    with pytest.raises(ValueError, match="part must be 'visited' or 'excluded', got 'all'"):
+        release_drift_table([data], {"part": "all"})

@@ -332,25 +332,6 @@ def appearance_change_table(files: Sequence[dict[str, Any]], options: dict[str, 
     return "\n".join(lines)
 
 
-def paper_pipeline_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
-    """The paper's pipeline with one setting changed per row (``studies/paper_pipeline.py``):
-    MAE % (x, y) of linear and quadratic regression on the paper's splits, the mean over the
-    world seeds with its 95 % interval, and the paper's figure."""
-
-    def cell(entry: dict[str, Any]) -> str:
-        ci = entry["interval"]
-        return f"{entry['mean']:.2f}" + ("" if ci is None else f" [{ci[0]:.2f}, {ci[1]:.2f}]")
-
-    lines = _head(["row", "change", "linear x", "linear y", "quadratic x", "quadratic y"])
-    for data in files:
-        paper = data["paper_mae_percent"]
-        lines.append(_row(["paper", "Metka et al. 2013", paper[0], paper[1], "-", "-"]))
-        for name, row in data["rows"].items():
-            values = [cell(e) for e in (*row["linear"], *row["quadratic"])]
-            lines.append(_row([f"`{name}`", row["change"], *values]))
-    return "\n".join(lines)
-
-
 _SFA_RUNS = (
     ("views along a smooth path, ours", ("ours",)),
     ("views along a smooth path, MDP", ("mdp",)),

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sfa_gym.report import formatters
+from sfa_gym.report import formatters, study_formatters
 
 __all__ = [
     "GENERATORS",
@@ -75,7 +75,8 @@ GENERATORS: dict[str, Generator] = {
     "image-statistics": formatters.image_statistics_table,
     "appearance-change": formatters.appearance_change_table,
     "textures-build": formatters.textures_build_table,
-    "paper-pipeline": formatters.paper_pipeline_table,
+    "paper-pipeline": study_formatters.paper_pipeline_table,
+    "release-drift": study_formatters.release_drift_table,
     "sfa-engine": formatters.sfa_engine_table,
     "leaderboard-timings": formatters.leaderboard_timings_table,
     "equivariance": formatters.equivariance_table,
@@ -89,8 +90,9 @@ track), ``nav-sets``
 (navigation studies' episode sets),
 ``quick-vs-full`` (the quick board's ranks against the full one's), ``descent-bound``,
 ``nav-steps``, ``outdoor-cost`` (also the textures' cost per step), ``image-statistics``,
-``appearance-change``, ``textures-build``, ``paper-pipeline``, ``sfa-engine``,
-``leaderboard-timings`` and ``equivariance`` (:mod:`sfa_gym.report.formatters`)."""
+``appearance-change``, ``textures-build``, ``sfa-engine``, ``leaderboard-timings`` and
+``equivariance`` (:mod:`sfa_gym.report.formatters`); ``paper-pipeline`` and ``release-drift``
+(the localization studies: :mod:`sfa_gym.report.study_formatters`)."""
 
 _BLOCK = re.compile(
     r"<!-- generated: (?P<spec>[^\n]*?) -->\n(?P<body>.*?)<!-- end generated -->", re.DOTALL

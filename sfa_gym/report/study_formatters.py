@@ -1,0 +1,70 @@
+"""Markdown tables of the localization studies' files (``studies/paper_pipeline.py``,
+``studies/release_drift.py``): rows of settings, each cell a mean over world seeds with its
+95 % interval (:func:`sfa_gym.intervals.mean_entry`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from sfa_gym.report.formatters import _head, _row
+
+__all__ = ["paper_pipeline_table", "release_drift_table"]
+
+
+def _mean_cell(entry: dict[str, Any]) -> str:
+    """``mean [lo, hi]``, or the mean alone when the entry has no interval."""
+    ci = entry["interval"]
+    return f"{entry['mean']:.2f}" + ("" if ci is None else f" [{ci[0]:.2f}, {ci[1]:.2f}]")
+
+
+def paper_pipeline_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """The paper's pipeline with one setting changed per row (``studies/paper_pipeline.py``):
+    MAE % (x, y) of linear and quadratic regression on the paper's splits, the mean over the
+    world seeds with its 95 % interval, and the paper's figure."""
+    lines = _head(["row", "change", "linear x", "linear y", "quadratic x", "quadratic y"])
+    for data in files:
+        paper = data["paper_mae_percent"]
+        lines.append(_row(["paper", "Metka et al. 2013", paper[0], paper[1], "-", "-"]))
+        for name, row in data["rows"].items():
+            values = [_mean_cell(e) for e in (*row["linear"], *row["quadratic"])]
+            lines.append(_row([f"`{name}`", row["change"], *values]))
+    return "\n".join(lines)
+
+
+_DRIFT_ROWS = (
+    ("release", "release (`60d3351`)", "turn with the rover"),
+    ("rover", "today", "turn with the rover"),
+    ("compass", "today", "compass directions"),
+)
+_DRIFT_REGRESSIONS = {
+    "map": "map decoder, penalty chosen",
+    "map_plain": "map decoder, no penalty",
+    "linear": "linear",
+}
+
+
+def release_drift_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """SFA and |FFT| on the trajectory protocol, the first release's code and camera against
+    today's (``studies/release_drift.py``): MAE % (x, y) on one part of the test run (option
+    ``part``: ``visited``, the default, or ``excluded``), mean over the world seeds with its
+    95 % interval. The release's map decoder had no penalty."""
+    part = options.get("part", "visited")
+    if part not in ("visited", "excluded"):
+        raise ValueError(f"release-drift: part must be 'visited' or 'excluded', got {part!r}")
+    lines = _head(["code", "views", "regression", "SFA x", "SFA y", "\\|FFT\\| x", "\\|FFT\\| y"])
+    for data in files:
+        for key, code, views in _DRIFT_ROWS:
+            row = data["rows"].get(key)
+            if row is None:
+                continue
+            for column, regression in _DRIFT_REGRESSIONS.items():
+                if column not in row["sfa"]:
+                    continue
+                if key == "release" and column == "map":
+                    regression = _DRIFT_REGRESSIONS["map_plain"]  # the release's own decoder
+                cells = [
+                    _mean_cell(e) for m in ("sfa", "fft_magnitude") for e in row[m][column][part]
+                ]
+                lines.append(_row([code, views, regression, *cells]))
+    return "\n".join(lines)
