@@ -1,7 +1,9 @@
-"""Benchmark: what the camera's optional effects (auto white balance, vignetting) cost per step.
+"""Benchmark: what the camera's optional effects (auto white balance, vignetting, fog) cost per
+step.
 
 The registered ``OmniRoverOutdoor-v0`` (mirror camera, dynamics, auto-exposure and noise: the
-reference) against the same env with each effect switched on and with both, all driving the
+reference) against the same env with each effect switched on (fog: the dynamics' visibility,
+which reads the depth buffer beside the colours), all driving the
 same commands (a slow curve) from the same start, timed in interleaved batches
 (:func:`benchmarks.bench_outdoor.time_steps`) and reported as the median CPU time of the process
 per step and its ratio to the reference measured in the same process (CPU time: on a shared
@@ -14,6 +16,7 @@ Usage (from the repository root)::
 
 from __future__ import annotations
 
+import dataclasses
 import statistics
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +37,9 @@ SENSORS: dict[str, SensorSpec] = {
 }
 """Each env's name and sensor; the first is the reference."""
 
+FOG_VISIBILITY_M = 100.0
+"""The fog row's visibility (thick fog; the cost does not depend on it)."""
+
 
 @dataclass(frozen=True)
 class Args:
@@ -52,6 +58,9 @@ def main(args: Args) -> None:
         name: gym.make("sfa_gym/OmniRoverOutdoor-v0", sensor=sensor).unwrapped
         for name, sensor in SENSORS.items()
     }
+    foggy = dataclasses.replace(envs["OmniRoverOutdoor-v0"].dynamics, visibility_m=FOG_VISIBILITY_M)
+    fog = f"+ fog, visibility {FOG_VISIBILITY_M:g} m"
+    envs[fog] = gym.make("sfa_gym/OmniRoverOutdoor-v0", dynamics=foggy).unwrapped
     wall, cpu = time_steps(envs, args.steps, args.repeats)
     reference = statistics.median(cpu[next(iter(SENSORS))])
     rows = {
@@ -60,7 +69,7 @@ def main(args: Args) -> None:
             "ratio": statistics.median(cpu[name]) / reference,
             "wall_ms_per_step": 1e3 * statistics.median(wall[name]),
         }
-        for name in SENSORS
+        for name in envs
     }
     for name, row in rows.items():
         print(f"{name:<28} {row['ms_per_step']:7.1f} CPU ms/step  ratio {row['ratio']:.2f}")

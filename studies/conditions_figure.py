@@ -5,8 +5,9 @@
 Writes one figure: the rover at the arena's centre, its mirror camera's 600 x 60 panorama (what
 every method sees) at the start of the test runs of ``outdoor_appearance_textured`` (the
 protocol's own env settings, :meth:`sfa_gym.protocols.outdoor.Config.env_kwargs`): after the
-training run, 4 h later, overcast, without movers, another day; then the same world on a
-mid-January and a mid-July day at the training hour, and the evening with the camera's auto
+training run, 4 h later, overcast, without movers, another day, and in thick fog (the
+condition ``fog``, on no track yet); then the same world on a mid-January and a mid-July day at
+the training hour, and the evening with the camera's auto
 white balance and vignetting. Backs docs/outdoor.md. Run from the repository root.
 """
 
@@ -56,6 +57,10 @@ def main(args: Args) -> None:
             kwargs["start_hour"] = config.start_hour + config.train_frames * config.frame_dt / 3600
         hour = kwargs["start_hour"]
         rows.append((f"{condition}, {hour:.2f} h", _panorama(kwargs)))
+    foggy = dataclasses.replace(config, conditions=(*config.conditions, "fog"))
+    kwargs = foggy.env_kwargs("fog", args.world_seed)
+    title = f"fog (visibility {foggy.fog_visibility_m:g} m, overcast), {kwargs['start_hour']:.2f} h"
+    rows.append((title, _panorama(kwargs)))
     for day_of_year, name in ((15, "mid-January"), (196, "mid-July")):
         dated = dataclasses.replace(config, day_of_year=day_of_year)
         rows.append(

@@ -22,13 +22,14 @@ from sfa_gym._checks import check_int, check_positive_int, is_number
 from sfa_gym.localization.appearance import Normalisation
 from sfa_gym.protocols.settings import check_choice, check_choices
 from sfa_gym.rotation import Rotation, check_step
+from sfa_gym.sim.camera.fog import check_visibility
 from sfa_gym.sim.worlds.sun import check_day_of_year, check_latitude
 
 __all__ = ["CONDITIONS", "ENV_ID", "Camera", "Condition", "Config"]
 
 ENV_ID = "sfa_gym/OmniRoverOutdoor-v0"
 """The env every outdoor run is rendered in."""
-Condition = Literal["after", "later", "overcast", "no_movers", "other_day"]
+Condition = Literal["after", "later", "overcast", "no_movers", "other_day", "fog"]
 CONDITIONS: tuple[str, ...] = get_args(Condition)
 """The kinds of test condition (see the module docstring); ``later`` and ``other_day`` give one
 condition per offset when their offsets are a tuple (:meth:`Config.test_conditions`)."""
@@ -64,7 +65,7 @@ class Config:
     other_day; None: the world's own (day 0)"""
     conditions: tuple[Condition, ...] = ("after",)
     """test conditions scored (appearance tracks): after, later, overcast, no_movers,
-    other_day; "after" is scored always, a track's score is the mean over these"""
+    other_day, fog; "after" is scored always, a track's score is the mean over these"""
     later_hours: float | tuple[float, ...] = 4.0
     """the "later" test run starts this many hours after the "after" one; several
     (--later-hours 2 6): one condition each, named later+2h, later+6h"""
@@ -72,6 +73,9 @@ class Config:
     """the "other_day" test run is this many days after the drive's day (other clouds and
     schedules, the same date); several (--other-days 1 2): one condition each, named
     other_day+1, other_day+2"""
+    fog_visibility_m: float = 100.0
+    """the "fog" test run: an overcast day (thick fog hides the sun) seen through fog of this
+    meteorological visibility, m (thick fog: 50-200; sfa_gym.sim.camera.fog)"""
     dynamics: bool = True
     """the world's dynamics (sun, clouds, movers); False: a static world (ablation)"""
     sensor: bool = True
@@ -136,6 +140,7 @@ class Config:
         if not 0.0 <= self.start_hour < 24.0:
             raise ValueError(f"start_hour must lie in [0, 24) hours, got {self.start_hour!r}")
         check_choices("conditions", self.conditions, Condition, "a condition")
+        check_visibility(self.fog_visibility_m)
         if not self.dynamics and set(self.conditions) - {"after"}:
             raise ValueError(
                 f"conditions {sorted(set(self.conditions) - {'after'})} change the dynamics; "
@@ -298,7 +303,11 @@ class Config:
         if kind == "no_movers":
             return {**kwargs, "start_hour": hour, "movers": False, **self._dated()}
         spec = self.world_dynamics()
-        change = {"overcast": {"overcast": 1.0}, "other_day": {"day": spec.day + int(offset)}}
+        change = {
+            "overcast": {"overcast": 1.0},
+            "other_day": {"day": spec.day + int(offset)},
+            "fog": {"overcast": 1.0, "visibility_m": self.fog_visibility_m},
+        }
         spec = dataclasses.replace(spec, **change[kind])
         return {**kwargs, "start_hour": hour, "dynamics": spec}
 

@@ -313,6 +313,10 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
                 self.dynamics, self.model, self.world_spec.arena.size, world_seed, built.lanes
             )
         )
+        if self.dynamics is not None and self.dynamics.visibility_m is not None:
+            camera = self._camera
+            views = camera.view_camera if isinstance(camera, MirrorCamera) else camera
+            views.visibility_m = self.dynamics.visibility_m
         # time of day (s since midnight): set on the first reset, then it runs on
         self._clock: float | None = None
         self._sun_time: float | None = None  # where the sun is held with the clock off

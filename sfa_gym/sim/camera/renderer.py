@@ -17,6 +17,12 @@ gl.configure()
 
 import mujoco  # noqa: E402  (MUJOCO_GL must be set first)
 
+from sfa_gym.sim.camera.fog import (  # noqa: E402
+    airlight,
+    apply_fog,
+    check_visibility,
+    ray_lengths,
+)
 from sfa_gym.sim.camera.projection import (  # noqa: E402
     _SMOOTH_SKY_STEP,
     PanoramaSpec,
@@ -190,6 +196,8 @@ class OmniCamera:
         self._cull = True
         self._cull_cache: tuple[int, list[Any], NDArray[np.intp], list[int]] | None = None
         self._smooth_skies = _smooth_skyboxes(model)
+        self.visibility_m: float | None = None
+        """fog's meteorological visibility (m), or None: clear air (:mod:`.fog`)"""
 
     @property
     def smooth_skies(self) -> list[int]:
@@ -259,6 +267,8 @@ class OmniCamera:
         ]
         self._full_rect = mujoco.MjrRect(0, 0, lay.buffer_w, lay.buffer_h)
         self._buffer = np.empty((lay.buffer_h, lay.buffer_w, 3), dtype=np.uint8)
+        self._depth: NDArray[np.float32] | None = None  # read only in fog
+        self._ray_lengths: NDArray[np.float32] | None = None
         s = self.spec.supersample
         self._fine = np.empty((self.spec.height * s, self.spec.width * s, 3), dtype=np.uint8)
         # the panorama before the whole columns of the heading are rolled in
@@ -423,7 +433,10 @@ class OmniCamera:
         self._headlight_at_eye()
         eye, frames, shift, phase = self._view_frames(data)
         self._render_views(data, eye, frames)
-        mujoco.mjr_readPixels(self._buffer, None, self._full_rect, self._con)
+        if self.visibility_m is None:
+            mujoco.mjr_readPixels(self._buffer, None, self._full_rect, self._con)
+        else:
+            self._read_in_fog(data, check_visibility(self.visibility_m))
         map_x, map_y = self._remap_maps(phase)
         spec, resampled = self.spec, self._resampled
         if spec.supersample == 1:
@@ -435,6 +448,20 @@ class OmniCamera:
         # Whole columns of the heading: column c looks where column c + shift of the resampled
         # panorama looks. The one copy also gives the caller a new array.
         return np.concatenate((resampled[:, shift:], resampled[:, :shift]), axis=1)
+
+    def _read_in_fog(self, data: mujoco.MjData, visibility_m: float) -> None:
+        """Read the views' colours and depths and blend each pixel towards the airlight by its
+        distance (:func:`~sfa_gym.sim.camera.fog.apply_fog`)."""
+        lay, model = self._layout, self.model
+        if self._depth is None or self._ray_lengths is None:
+            self._depth = np.empty((lay.buffer_h, lay.buffer_w), dtype=np.float32)
+            rects = [(*lay.origin(i), lay.view_w, lay.view_h) for i in range(lay.n_views)]
+            self._ray_lengths = ray_lengths(lay.buffer_w, lay.buffer_h, rects, lay.focal)
+        mujoco.mjr_readPixels(self._buffer, self._depth, self._full_rect, self._con)
+        extent = float(model.stat.extent)
+        znear, zfar = model.vis.map.znear * extent, model.vis.map.zfar * extent
+        air = airlight(model, data)
+        apply_fog(self._buffer, self._depth, self._ray_lengths, znear, zfar, visibility_m, air)
 
     # -- cleanup --------------------------------------------------------------------------------
 

@@ -20,6 +20,8 @@ the same scene.
   ``[1 - cloud_depth, 1]`` (a sum of three sinusoids with periods drawn from
   ``cloud_period_s``); what clouds take from the sun partly comes back as diffuse sky light.
   ``overcast`` (0 sunny .. 1 overcast) removes most direct light for the whole day.
+* **Fog**: with a ``visibility_m`` (the meteorological visibility), every view sees the scene
+  through fog by Koschmieder's law, lit by the same daylight (:mod:`sfa_gym.sim.camera.fog`).
 * **Movers**: pedestrians on the pavement, a cyclist and cars on a road past one side, as
   mocap bodies on lanes the scene keeps free (:mod:`sfa_gym.sim.worlds.movers`).
 
@@ -35,6 +37,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from sfa_gym.sim.camera.fog import check_visibility
 
 # the movers live in their own module; their public names are re-exported here
 from sfa_gym.sim.worlds.movers import (
@@ -106,6 +110,8 @@ class DynamicsSpec:
         cloud_period_s: ``[min, max]`` periods of the cloud modulation, s.
         overcast: 0 (sunny) .. 1 (overcast) for the whole day.
         day: which day: another day draws other clouds and mover schedules.
+        visibility_m: fog's meteorological visibility in metres (thick fog: 50-200), or None:
+            clear air.
         road: the road of the cyclists and cars.
         clock, clouds, movers: switch each effect (the clock off holds the sun where it
             stood when the episode started, while clouds and movers go on; the movers off
@@ -131,6 +137,7 @@ class DynamicsSpec:
     road: RoadSpec = RoadSpec()
     day_of_year: int | None = None
     latitude_deg: float | None = None
+    visibility_m: float | None = None
 
     def __post_init__(self) -> None:
         check_value(
@@ -171,6 +178,7 @@ class DynamicsSpec:
         for name in ("clock", "clouds", "movers"):
             value = getattr(self, name)
             check_value(isinstance(value, bool), f"{name} must be True or False, got {value!r}")
+        check_visibility(self.visibility_m)
         if self.day_of_year is not None:
             check_day_of_year(self.day_of_year)
         if self.latitude_deg is not None:
