@@ -57,7 +57,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 CONFIG = trajectory.Config(panorama=(40, 350))
 """``sfa-gym localize-run``'s protocol; the panorama is the env's own (40 x 350), given so that
-the release's camera can be asked for at the same size."""
+the release's camera can be asked for at the same size. ``--world`` replaces its world."""
 
 REGRESSIONS: dict[str, dict[str, Any]] = {
     "map": {},  # today's: the bending penalty chosen by block cross-validation
@@ -94,13 +94,19 @@ class ReleaseCamera:
 @dataclass
 class Args:
     world_seeds: tuple[int, ...] = (20, 21, 22, 23, 24)
-    """worlds of paper_sim (none of them a track's or the main job's)"""
+    """world seeds (of paper_sim: none of them a track's or the main job's)"""
+    world: str | None = None
+    """a world spec (a name in envs/ or a JSON file) to run instead of the env's own
+    (paper_sim); the release's code had no such option, so --release needs the default"""
     cameras: tuple[str, ...] = ("compass", "rover")
     """today's camera and the release's"""
     release: Path | None = None
     """folder with ``old-<seed>/results.json`` of the release's ``sfa-gym localize-run``"""
     cache: Path | None = None
     """render cache (None: the default one)"""
+    reuse: Path | None = None
+    """an earlier file of this study (the same protocol and SFA settings): its worlds are taken
+    from it instead of being run again"""
     json: Path = ROOT / "published" / "studies" / "release_drift.json"
     """where to write the figures"""
 
@@ -121,11 +127,13 @@ def method_scores(method: Any, data: trajectory.TrajectoryData) -> dict[str, Any
     return out
 
 
-def run_world(world_seed: int, camera: str, runs: RunCache) -> dict[str, Any]:
+def run_world(
+    config: trajectory.Config, world_seed: int, camera: str, runs: RunCache
+) -> dict[str, Any]:
     """SFA's and |FFT|'s scores on one world with one camera."""
     source = runs if camera == "compass" else ReleaseCamera(runs)
     started = time.perf_counter()
-    data = trajectory.load(CONFIG, world_seed, source)
+    data = trajectory.load(config, world_seed, source)
     sfa = SlowFeatureMethod(SFASettings(), CONFIG.rotation, progress=False)
     fft = load_method("fft_magnitude", isolated=False)
     return {
@@ -169,15 +177,40 @@ def summarise(worlds: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
+def _earlier_worlds(
+    path: Path | None, config: trajectory.Config
+) -> dict[tuple[str, int], dict[str, Any]]:
+    """``{(camera, world seed): world}`` of an earlier file of this study, checked to have been
+    run with the same protocol and SFA settings."""
+    if path is None:
+        return {}
+    data = json.loads(path.read_text())
+    for key, today in (("protocol", config), ("sfa", SFASettings())):
+        if data.get(key) != json.loads(json.dumps(dataclasses.asdict(today))):
+            raise SystemExit(f"{path}: its {key} settings differ from today's; run it again")
+    return {
+        (camera, world["world_seed"]): world
+        for camera, row in data["rows"].items()
+        if camera != "release"
+        for world in row["worlds"]
+    }
+
+
 def main(args: Args) -> dict[str, Any]:
     unknown = [c for c in args.cameras if c not in ("compass", "rover")]
     if unknown:
         raise SystemExit(f"unknown cameras {unknown}; expected 'compass' or 'rover'")
+    if args.world is not None and args.release is not None:
+        raise SystemExit("--release compares the env's own world (the release had no --world)")
+    config = dataclasses.replace(CONFIG, world=args.world)
+    config.validate()
     runs = RunCache(args.cache)
+    earlier = _earlier_worlds(args.reuse, config)
     found: dict[str, list[dict[str, Any]]] = {camera: [] for camera in args.cameras}
     jobs = [(camera, seed) for camera in args.cameras for seed in args.world_seeds]
     for camera, seed in tqdm(jobs, desc="release drift"):
-        found[camera].append(run_world(seed, camera, runs))
+        world = earlier.get((camera, seed)) or run_world(config, seed, camera, runs)
+        found[camera].append(world)
     rows = {camera: {"worlds": worlds, **summarise(worlds)} for camera, worlds in found.items()}
     if args.release is not None:
         worlds = [
@@ -188,7 +221,7 @@ def main(args: Args) -> dict[str, Any]:
         "format": "sfa-gym-study-release-drift",
         "version": 1,
         "release_commit": "60d3351",
-        "protocol": dataclasses.asdict(CONFIG),
+        "protocol": dataclasses.asdict(config),
         "sfa": dataclasses.asdict(SFASettings()),
         "world_seeds": list(args.world_seeds),
         "rows": rows,

@@ -91,3 +91,11 @@ def test_the_table_shows_each_code_camera_and_regression_from_the_file():
     assert excluded[2].endswith("| 5.00 [4.00, 6.00] | 6.00 | 5.00 [4.00, 6.00] | 6.00 |")
     with pytest.raises(ValueError, match="part must be 'visited' or 'excluded', got 'all'"):
         release_drift_table([data], {"part": "all"})
+
+
+def test_the_release_is_compared_on_the_env_s_own_world_only(tmp_path):
+    from studies.release_drift import Args, main
+
+    with pytest.raises(SystemExit, match="--release compares the env's own world"):
+        main(Args(world="paper_sim_maze", release=tmp_path, json=tmp_path / "x.json"))
+    assert not (tmp_path / "x.json").exists()
