@@ -193,8 +193,11 @@ def test_navigation_spl_is_gathered_checked_and_shown_beside_the_success_rate(tm
     capsys.readouterr()
     assert main(["leaderboard", "table", "--results", str(out.parent), "--markdown"]) == 0
     table = capsys.readouterr().out
-    assert "Navigation: SPL" in table
-    assert "| mine | yours | 0.38 |" in table
+    spl_rows = table.split("Navigation: SPL")[1].splitlines()
+    mine = next(line for line in spl_rows if line.startswith("| mine | yours |"))
+    assert " 0.38 |" in mine  # the mean of 0.5 and 0.25, in its track's column
+    # the reference boards' navigation results show theirs
+    assert any(line.startswith("| sfa | reference |") for line in spl_rows)
     # an SPL outside [0, 1] is refused by name, in a result file and in a gathered entry
     result["tasks"][1]["scores"]["spl"] = 1.5
     path.write_text(json.dumps(result))
