@@ -31,11 +31,16 @@ def test_each_condition_changes_one_thing_against_the_run_right_after_training()
         "movers": False,
     }
     declared = load_world_spec("paper_outdoor").dynamics
-    for condition, change in (("overcast", {"overcast": 1.0}), ("other_day", {"day": 1})):
+    fog = {"overcast": 1.0, "visibility_m": config.fog_visibility_m}
+    for condition, change in (
+        ("overcast", {"overcast": 1.0}),
+        ("other_day", {"day": 1}),
+        ("fog", fog),
+    ):
         kwargs = config.env_kwargs(condition, 0)
         assert kwargs.pop("dynamics") == dataclasses.replace(declared, **change)
         assert kwargs == {**base, "start_hour": pytest.approx(hour)}
-    assert set(CONDITIONS) == {"after", "later", "overcast", "no_movers", "other_day"}
+    assert set(CONDITIONS) == {"after", "later", "overcast", "no_movers", "other_day", "fog"}
 
 
 def test_ablation_switches_reach_the_env_kwargs():
