@@ -2,8 +2,9 @@
 its change over 0.3 m.
 
 For each outdoor appearance track and world seed, the test path is recorded once as the drive's
-test part (``after``) and once per condition (4 h later, overcast, without movers, another day),
-with the same driver and seed. For every ``--every``-th test frame this compares
+test part (``after``) and once per condition (the track's: 4 h later, overcast, without movers,
+another day; and ``--extra`` conditions on no track yet: thick fog, another day's parked
+objects), with the same driver and seed. For every ``--every``-th test frame this compares
 
 - *fixed pose*: the condition's panorama with the ``after`` panorama of the same frame (the
   rover's pose is the same up to the physics' round-off; the table reports the largest
@@ -24,6 +25,7 @@ Usage (from the repository root)::
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -48,6 +50,8 @@ class Args:
     """compare every n-th test frame"""
     distance: float = 0.3
     """the move the fixed-pose change is compared with, m"""
+    extra: tuple[str, ...] = ("fog", "rearranged")
+    """conditions compared beyond the track's own (sfa_gym.protocols.outdoor.CONDITIONS)"""
     cache: Path | None = None
     """the render cache (default: sfa_gym.recording.cache.default_cache_dir())"""
     out: Path = ROOT / "published" / "studies" / "appearance_change.json"
@@ -81,6 +85,8 @@ def seed_changes(track: Any, world_seed: int, runs: Any, args: Args) -> dict[str
     from sfa_gym.protocols import outdoor
 
     config = track.config(False)
+    extra = tuple(c for c in args.extra if c not in config.conditions)
+    config = dataclasses.replace(config, conditions=(*config.conditions, *extra))
     got = {
         name: runs.get(request) for name, request in outdoor.requests(config, world_seed).items()
     }

@@ -5,8 +5,8 @@
 Writes one figure: the rover at the arena's centre, its mirror camera's 600 x 60 panorama (what
 every method sees) at the start of the test runs of ``outdoor_appearance_textured`` (the
 protocol's own env settings, :meth:`sfa_gym.protocols.outdoor.Config.env_kwargs`): after the
-training run, 4 h later, overcast, without movers, another day, and in thick fog (the
-condition ``fog``, on no track yet); then the same world on a mid-January and a mid-July day at
+training run, 4 h later, overcast, without movers, another day, in thick fog and with the
+parked objects of another day (the conditions ``fog`` and ``rearranged``, on no track yet); then the same world on a mid-January and a mid-July day at
 the training hour, and the evening with the camera's auto
 white balance and vignetting. Backs docs/outdoor.md. Run from the repository root.
 """
@@ -61,6 +61,10 @@ def main(args: Args) -> None:
     kwargs = foggy.env_kwargs("fog", args.world_seed)
     title = f"fog (visibility {foggy.fog_visibility_m:g} m, overcast), {kwargs['start_hour']:.2f} h"
     rows.append((title, _panorama(kwargs)))
+    moved = dataclasses.replace(config, conditions=(*config.conditions, "rearranged"))
+    kwargs = moved.env_kwargs("rearranged", args.world_seed)
+    title = f"rearranged (the parked objects of arrangement day 1), {kwargs['start_hour']:.2f} h"
+    rows.append((title, _panorama(kwargs)))
     for day_of_year, name in ((15, "mid-January"), (196, "mid-July")):
         dated = dataclasses.replace(config, day_of_year=day_of_year)
         rows.append(
@@ -74,9 +78,11 @@ def main(args: Args) -> None:
         camera = dataclasses.replace(evening, white_balance=white_balance, vignetting=vignetting)
         title = "18.5 h" + (", auto white balance, vignetting 0.3" if white_balance else "")
         rows.append((title, _panorama(camera.env_kwargs("after", args.world_seed))))
-    height = sum(10.0 * image.shape[0] / image.shape[1] + 0.25 for _, image in rows)
+    # 6 inches: the panoramas' own 600 columns, no pixel repeated
+    height = sum(6.0 * image.shape[0] / image.shape[1] + 0.25 for _, image in rows)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    save_strip(rows, args.out, f"textured paper_outdoor seed {args.world_seed}", height)
+    prefix = f"textured paper_outdoor seed {args.world_seed}"
+    save_strip(rows, args.out, prefix, height, width=6.0)
     print(f"wrote {args.out} ({args.out.stat().st_size / 1e3:.0f} kB)")
 
 

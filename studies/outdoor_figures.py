@@ -47,12 +47,14 @@ def save_strip(
     prefix: str,
     height: float,
     interpolation: str = "nearest",
+    width: float = 10.0,
 ) -> None:
-    """Panoramas one above the other, each titled ``prefix, title``, in a figure 10 inches wide
-    and ``height`` high; rows of other aspects get heights in proportion."""
+    """Panoramas one above the other, each titled ``prefix, title``, in a figure ``width``
+    inches wide (100 pixels each) and ``height`` high; rows of other aspects get heights in
+    proportion."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(10.0, height), layout="constrained")
+    fig = Figure(figsize=(width, height), layout="constrained")
     ratios = [image.shape[0] / image.shape[1] for _, image in rows]
     axes = fig.subplots(len(rows), 1, gridspec_kw={"height_ratios": ratios})
     for ax, (title, image) in zip(axes, rows, strict=True):

@@ -36,11 +36,20 @@ def test_each_condition_changes_one_thing_against_the_run_right_after_training()
         ("overcast", {"overcast": 1.0}),
         ("other_day", {"day": 1}),
         ("fog", fog),
+        ("rearranged", {"arrangement": 1}),
     ):
         kwargs = config.env_kwargs(condition, 0)
         assert kwargs.pop("dynamics") == dataclasses.replace(declared, **change)
         assert kwargs == {**base, "start_hour": pytest.approx(hour)}
-    assert set(CONDITIONS) == {"after", "later", "overcast", "no_movers", "other_day", "fog"}
+    assert set(CONDITIONS) == {
+        "after",
+        "later",
+        "overcast",
+        "no_movers",
+        "other_day",
+        "fog",
+        "rearranged",
+    }
 
 
 def test_ablation_switches_reach_the_env_kwargs():

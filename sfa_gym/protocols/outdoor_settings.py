@@ -8,6 +8,9 @@ world's own (a sine arc over the day) unless a ``day_of_year`` (and ``latitude_d
 unless given; ``other_day`` is ``other_days`` after it. Several ``later_hours`` or
 ``other_days`` give one condition each (``later+2h``, ``later+6h``; ``other_day+1``, ...), a
 single one keeps the plain name (``later``, ``other_day``) and the runs of before.
+``rearranged`` is the drive's day with the parked objects of the next arrangement day (cars
+that left or came, bins, benches, a building-site fence: :mod:`sfa_gym.sim.worlds.rearrange`)
+and nothing else changed; ``other_day`` changes the clouds and movers only.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ __all__ = ["CONDITIONS", "ENV_ID", "Camera", "Condition", "Config"]
 
 ENV_ID = "sfa_gym/OmniRoverOutdoor-v0"
 """The env every outdoor run is rendered in."""
-Condition = Literal["after", "later", "overcast", "no_movers", "other_day", "fog"]
+Condition = Literal["after", "later", "overcast", "no_movers", "other_day", "fog", "rearranged"]
 CONDITIONS: tuple[str, ...] = get_args(Condition)
 """The kinds of test condition (see the module docstring); ``later`` and ``other_day`` give one
 condition per offset when their offsets are a tuple (:meth:`Config.test_conditions`)."""
@@ -65,7 +68,8 @@ class Config:
     other_day; None: the world's own (day 0)"""
     conditions: tuple[Condition, ...] = ("after",)
     """test conditions scored (appearance tracks): after, later, overcast, no_movers,
-    other_day, fog; "after" is scored always, a track's score is the mean over these"""
+    other_day, fog, rearranged; "after" is scored always, a track's score is the mean over
+    these"""
     later_hours: float | tuple[float, ...] = 4.0
     """the "later" test run starts this many hours after the "after" one; several
     (--later-hours 2 6): one condition each, named later+2h, later+6h"""
@@ -307,6 +311,7 @@ class Config:
             "overcast": {"overcast": 1.0},
             "other_day": {"day": spec.day + int(offset)},
             "fog": {"overcast": 1.0, "visibility_m": self.fog_visibility_m},
+            "rearranged": {"arrangement": spec.arrangement + 1},
         }
         spec = dataclasses.replace(spec, **change[kind])
         return {**kwargs, "start_hour": hour, "dynamics": spec}

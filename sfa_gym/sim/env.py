@@ -278,7 +278,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
             start_hour,
         )
         self.sensor = resolve_sensor(sensor, auto_exposure, sensor_noise)
-        built = build_world(self.world_spec, world_seed, rover_mjcf(self.rover, panorama))
+        built = build_world(
+            self.world_spec, world_seed, rover_mjcf(self.rover, panorama), self.dynamics
+        )
         self.mjcf = built.mjcf
         self.layout = built.layout
         self.model = mujoco.MjModel.from_xml_string(self.mjcf, built.assets)

@@ -45,12 +45,13 @@ class Builder:
         rgb = extra.pop("rgb", None) or self.colours[material]
         return self.textures.material(surface, material, rgb, self.assets, **extra)
 
-    def plain_material(self, rgb: tuple[float, float, float]) -> str:
+    def plain_material(self, rgb: tuple[float, float, float], alpha: float = 1.0) -> str:
+        """A matte material of colour ``rgb`` (``alpha`` < 1: see-through)."""
         name = f"mat{self.n_materials}"
         self.n_materials += 1
         self.colours[name] = rgb
         self.assets.append(
-            f'<material name="{name}" rgba="{vec(*rgb, 1.0)}" specular="0" shininess="0"/>'
+            f'<material name="{name}" rgba="{vec(*rgb, alpha)}" specular="0" shininess="0"/>'
         )
         return name
 

@@ -15,8 +15,9 @@ from sfa_gym._checks import check_world_seed
 from sfa_gym.sim.worlds._mjcf import Builder as _Builder
 from sfa_gym.sim.worlds._mjcf import num as _num
 from sfa_gym.sim.worlds._mjcf import vec as _vec
-from sfa_gym.sim.worlds.dynamics import Lanes, mover_lanes, movers_mjcf
+from sfa_gym.sim.worlds.dynamics import DynamicsSpec, Lanes, mover_lanes, movers_mjcf
 from sfa_gym.sim.worlds.outdoor import build_outdoor, outer_reach
+from sfa_gym.sim.worlds.rearrange import rearranged_for
 from sfa_gym.sim.worlds.spec import ColourRange, WorldSpec
 from sfa_gym.sim.worlds.texturing import Texturer
 
@@ -427,13 +428,21 @@ def _lights(b: _Builder) -> None:
         b.body.append(_light(f"{prefix}{i}", az, el, light.diffuse))
 
 
-def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = None) -> World:
+def build_world(
+    spec: WorldSpec,
+    world_seed: int = 0,
+    robot: MJCFParts | None = None,
+    dynamics: DynamicsSpec | None = None,
+) -> World:
     """Generate one world of ``spec`` from ``world_seed``, optionally with a robot in it.
 
     Args:
         spec: the world spec.
         world_seed: seed of ``np.random.default_rng``; same seed -> identical MJCF text.
         robot: the robot's MJCF pieces (its bodies go into the worldbody).
+        dynamics: the dynamics the world runs under, when they are not the spec's own (an
+            env's): their ``arrangement`` day places the parked objects of an outdoor world
+            (:mod:`sfa_gym.sim.worlds.rearrange`). None: the spec's.
 
     Returns:
         The MJCF text of the whole model and the world's layout. The model contains a fixed
@@ -474,7 +483,8 @@ def build_world(spec: WorldSpec, world_seed: int = 0, robot: MJCFParts | None = 
         None if spec.dynamics is None else mover_lanes(spec.dynamics, arena.size, int(world_seed))
     )
     if spec.outdoor is not None:
-        landmarks += build_outdoor(b, lanes)
+        day = rearranged_for(spec.dynamics if dynamics is None else dynamics, int(world_seed))
+        landmarks += build_outdoor(b, lanes, day)
     if spec.dynamics is not None and lanes is not None and spec.dynamics.n_movers:
         # the movers draw from their own generator: the world around them stays the same
         mover_assets, mover_bodies = movers_mjcf(spec.dynamics, lanes, int(world_seed))

@@ -112,6 +112,12 @@ class DynamicsSpec:
         day: which day: another day draws other clouds and mover schedules.
         visibility_m: fog's meteorological visibility in metres (thick fog: 50-200), or None:
             clear air.
+        arrangement: which day's parked objects (cars, bins, benches, a building-site fence;
+            :mod:`sfa_gym.sim.worlds.rearrange`): 0, the world as its seed built it; another
+            number moves, removes and adds some, drawn from the world seed and this number.
+            Apart from ``day`` (clouds and movers), so that each change can be had alone.
+        rearrange_share: how much another ``arrangement`` changes: the chance that a parked
+            car has left, and the expected newcomers per parked car.
         road: the road of the cyclists and cars.
         clock, clouds, movers: switch each effect (the clock off holds the sun where it
             stood when the episode started, while clouds and movers go on; the movers off
@@ -138,6 +144,8 @@ class DynamicsSpec:
     day_of_year: int | None = None
     latitude_deg: float | None = None
     visibility_m: float | None = None
+    arrangement: int = 0
+    rearrange_share: float = 0.5
 
     def __post_init__(self) -> None:
         check_value(
@@ -174,6 +182,19 @@ class DynamicsSpec:
         check_value(
             isinstance(self.day, int) and not isinstance(self.day, bool) and self.day >= 0,
             f"day must be an integer >= 0, got {self.day!r}",
+        )
+        check_value(
+            isinstance(self.arrangement, int)
+            and not isinstance(self.arrangement, bool)
+            and self.arrangement >= 0,
+            f"arrangement must be an integer >= 0 (0: the world as built), got "
+            f"{self.arrangement!r}",
+        )
+        check_value(
+            isinstance(self.rearrange_share, int | float)
+            and not isinstance(self.rearrange_share, bool)
+            and 0.0 <= self.rearrange_share <= 1.0,
+            f"rearrange_share must lie in [0, 1], got {self.rearrange_share!r}",
         )
         for name in ("clock", "clouds", "movers"):
             value = getattr(self, name)

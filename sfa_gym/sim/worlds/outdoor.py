@@ -27,11 +27,15 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from sfa_gym.sim.worlds._mjcf import Builder as _Builder
 from sfa_gym.sim.worlds._mjcf import vec as _vec
 from sfa_gym.sim.worlds.dynamics import FOOTPRINT, Lanes
 from sfa_gym.sim.worlds.spec import ColourRange, ItemsSpec, OutdoorSpec
+
+if TYPE_CHECKING:
+    from sfa_gym.sim.worlds.rearrange import Rearranged
 
 Rect = tuple[float, float, float, float]
 """``(xmin, xmax, ymin, ymax)`` of an axis-aligned footprint, metres."""
@@ -40,7 +44,7 @@ Landmark = tuple[str, float, float, float]
 """``(kind, x, y, height)`` as in :attr:`WorldLayout.landmarks`."""
 
 _GAP = 0.3  # free space kept between footprints (m)
-_CAR_LENGTH = 2.3  # car length / car width
+CAR_LENGTH = 2.3  # a parked car's length / its width
 _CAR_WHEEL = 0.32  # car wheel radius (m)
 _GLASS = (0.14, 0.17, 0.22)
 _RUBBER = (0.06, 0.06, 0.06)
@@ -55,7 +59,7 @@ _PAINT = (0.92, 0.92, 0.88)  # lane markings
 
 
 @dataclass(frozen=True)
-class _Side:
+class Side:
     """One side of the asphalt: its outward normal, tangent, the distance of its edge from the
     centre and its half length along the tangent (m)."""
 
@@ -81,12 +85,12 @@ class _Side:
         return (x - hx, x + hx, y - hy, y + hy)
 
 
-def _sides(hx: float, hy: float) -> list[_Side]:
+def _sides(hx: float, hy: float) -> list[Side]:
     return [
-        _Side("north", (0.0, 1.0), (1.0, 0.0), hy, hx),
-        _Side("east", (1.0, 0.0), (0.0, 1.0), hx, hy),
-        _Side("south", (0.0, -1.0), (1.0, 0.0), hy, hx),
-        _Side("west", (-1.0, 0.0), (0.0, 1.0), hx, hy),
+        Side("north", (0.0, 1.0), (1.0, 0.0), hy, hx),
+        Side("east", (1.0, 0.0), (0.0, 1.0), hx, hy),
+        Side("south", (0.0, -1.0), (1.0, 0.0), hy, hx),
+        Side("west", (-1.0, 0.0), (0.0, 1.0), hx, hy),
     ]
 
 
@@ -96,7 +100,7 @@ def _overlaps(a: Rect, b: Rect, gap: float = _GAP) -> bool:
     )
 
 
-def _box_geom(name: str, rect: Rect, z0: float, z1: float, material: str) -> str:
+def box_geom(name: str, rect: Rect, z0: float, z1: float, material: str) -> str:
     """An axis-aligned box over ``rect`` from height ``z0`` to ``z1``."""
     x0, x1, y0, y1 = rect
     return (
@@ -106,7 +110,7 @@ def _box_geom(name: str, rect: Rect, z0: float, z1: float, material: str) -> str
     )
 
 
-class _Scene:
+class Scene:
     """Footprints taken so far, the geoms and the landmarks, while drawing from one generator."""
 
     def __init__(self, b: _Builder, spec: OutdoorSpec):
@@ -124,6 +128,8 @@ class _Scene:
         self.materials: dict[tuple[float, float, float], str] = {}
         # where the movers go (the pavement and the road): tree crowns above them are lifted
         self.lanes: list[Rect] = []
+        # another day's parked objects (sfa_gym.sim.worlds.rearrange); None: as built
+        self.rearranged: Rearranged | None = None
 
     def free(self, rect: Rect) -> bool:
         return not any(_overlaps(rect, t) for t in self.taken)
@@ -147,7 +153,7 @@ class _Scene:
         return f"{kind}{sum(1 for k, *_ in self.landmarks if k == kind)}"
 
 
-def _pavement(s: _Scene) -> None:
+def _pavement(s: Scene) -> None:
     pw = s.spec.pavement_width
     mat = s.b.textured("paving", s.b.surface_material(s.spec.pavement))
     # half a millimetre under the asphalt tile and above the grass plane: no depth fighting
@@ -159,7 +165,7 @@ def _pavement(s: _Scene) -> None:
 
 
 def _window_material(
-    s: _Scene,
+    s: Scene,
     facade: tuple[float, float, float],
     glass: tuple[float, float, float],
     columns: int,
@@ -185,7 +191,7 @@ def _window_material(
     return b.textured("facade", name, rgb=facade, glass=glass, bays=bays, bay_m=bay, repeat=(1, 1))
 
 
-def _buildings(s: _Scene, car_side: _Side, car_band: float, lanes: Lanes | None) -> None:
+def _buildings(s: Scene, car_side: Side, car_band: float, lanes: Lanes | None) -> None:
     spec, rng = s.spec.buildings, s.rng
     n = int(rng.integers(spec.sides[0], spec.sides[1] + 1))
     order = rng.permutation(len(s.sides))
@@ -213,55 +219,66 @@ def _buildings(s: _Scene, car_side: _Side, car_band: float, lanes: Lanes | None)
             mat = _window_material(s, facade, glass, columns, storeys)
             height = storeys * spec.storey_height
             cx, cy = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
-            s.geoms.append(_box_geom(s.name("building"), rect, 0.0, height, mat))
+            s.geoms.append(box_geom(s.name("building"), rect, 0.0, height, mat))
             s.landmarks.append(("building", cx, cy, height))
 
 
-def _cars(s: _Scene, side: _Side) -> None:
+def _cars(s: Scene, side: Side) -> None:
     spec, rng = s.spec.cars, s.rng
     out0 = side.edge + s.spec.pavement_width + 0.5
     # the row is centred on the side, give or take a car; cars that would stand in a
     # neighbouring side's buildings are left out
-    mean_pitch = _CAR_LENGTH * sum(spec.width) / 2 + 1.55
+    mean_pitch = CAR_LENGTH * sum(spec.width) / 2 + 1.55
     along = -spec.count * mean_pitch / 2 + rng.uniform(-2.0, 2.0)
     for _ in range(spec.count):
         width, height = rng.uniform(*spec.width), rng.uniform(*spec.height)
-        length = _CAR_LENGTH * width
+        length = CAR_LENGTH * width
         rect = side.rect(out0 + width / 2, along + length / 2, width, length)
         along += length + rng.uniform(0.6, 2.5)
-        body, cabin = s.material(spec.colours.draw(rng)), s.material(_GLASS)
+        body = s.material(spec.colours.draw(rng))
+        s.material(_GLASS)
         if not s.free(rect):
             continue
         s.taken.append(rect)
-        name = s.name("car")
-        cx, cy = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
-        lengthwise_x = side.normal[0] == 0.0
-        z_body = 0.55 * height
-        s.geoms.append(_box_geom(name, rect, 0.22, z_body, body))
-        # the cabin: shorter and narrower than the body, shifted a little to the rear
-        ux, uy = (1.0, 0.0) if lengthwise_x else (0.0, 1.0)
-        shrink = (0.22 * length, 0.08 * width) if lengthwise_x else (0.08 * width, 0.22 * length)
-        cab = (
-            rect[0] + shrink[0] - 0.1 * length * ux,
-            rect[1] - shrink[0] - 0.1 * length * ux,
-            rect[2] + shrink[1] - 0.1 * length * uy,
-            rect[3] - shrink[1] - 0.1 * length * uy,
+        if s.rearranged is not None and not s.rearranged.stays(rect):
+            continue  # parked elsewhere today: its place stays empty
+        park_car(s, rect, (length, width, height), body, lengthwise_x=side.normal[0] == 0.0)
+
+
+def park_car(
+    s: Scene, rect: Rect, size: tuple[float, float, float], body: str, lengthwise_x: bool
+) -> None:
+    """A parked car over the footprint ``rect`` (lengthwise along x or y) of ``size`` (length,
+    width, height, m): body, cabin and two axles, the body in the material ``body``."""
+    name = s.name("car")
+    cx, cy = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
+    length, width, height = size
+    z_body = 0.55 * height
+    s.geoms.append(box_geom(name, rect, 0.22, z_body, body))
+    # the cabin: shorter and narrower than the body, shifted a little to the rear
+    ux, uy = (1.0, 0.0) if lengthwise_x else (0.0, 1.0)
+    shrink = (0.22 * length, 0.08 * width) if lengthwise_x else (0.08 * width, 0.22 * length)
+    cab = (
+        rect[0] + shrink[0] - 0.1 * length * ux,
+        rect[1] - shrink[0] - 0.1 * length * ux,
+        rect[2] + shrink[1] - 0.1 * length * uy,
+        rect[3] - shrink[1] - 0.1 * length * uy,
+    )
+    s.geoms.append(box_geom(f"{name}_cabin", cab, z_body, height, s.material(_GLASS)))
+    # one cylinder per axle, a little wider than the body: two dark wheels seen from a side
+    wheels = s.material(_RUBBER)
+    euler = "90 0 0" if lengthwise_x else "0 90 0"
+    for k, f in enumerate((-0.32, 0.32)):
+        wx, wy = cx + f * length * ux, cy + f * length * uy
+        s.geoms.append(
+            f'<geom name="{name}_axle{k}" type="cylinder" pos="{_vec(wx, wy, _CAR_WHEEL)}" '
+            f'size="{_vec(_CAR_WHEEL, width / 2 + 0.03)}" euler="{euler}" '
+            f'material="{wheels}" contype="0" conaffinity="0"/>'
         )
-        s.geoms.append(_box_geom(f"{name}_cabin", cab, z_body, height, cabin))
-        # one cylinder per axle, a little wider than the body: two dark wheels seen from a side
-        wheels = s.material(_RUBBER)
-        euler = "90 0 0" if lengthwise_x else "0 90 0"
-        for k, f in enumerate((-0.32, 0.32)):
-            wx, wy = cx + f * length * ux, cy + f * length * uy
-            s.geoms.append(
-                f'<geom name="{name}_axle{k}" type="cylinder" pos="{_vec(wx, wy, _CAR_WHEEL)}" '
-                f'size="{_vec(_CAR_WHEEL, width / 2 + 0.03)}" euler="{euler}" '
-                f'material="{wheels}" contype="0" conaffinity="0"/>'
-            )
-        s.landmarks.append(("car", cx, cy, height))
+    s.landmarks.append(("car", cx, cy, height))
 
 
-def _fences(s: _Scene, car_side: _Side) -> None:
+def _fences(s: Scene, car_side: Side) -> None:
     spec, rng = s.spec.fences, s.rng
     others = [side for side in s.sides if side is not car_side]
     for _ in range(spec.count):
@@ -287,14 +304,14 @@ def _fences(s: _Scene, car_side: _Side) -> None:
             else:
                 px, py = (rect[0] + rect[1]) / 2, rect[2] + f * (rect[3] - rect[2])
             post = (px - 0.04, px + 0.04, py - 0.04, py + 0.04)
-            s.geoms.append(_box_geom(f"{name}_post{k}", post, 0.0, height, colour))
+            s.geoms.append(box_geom(f"{name}_post{k}", post, 0.0, height, colour))
         for k, z in enumerate((0.35 * height, 0.85 * height)):
-            s.geoms.append(_box_geom(f"{name}_rail{k}", rect, z - 0.03, z + 0.03, colour))
+            s.geoms.append(box_geom(f"{name}_rail{k}", rect, z - 0.03, z + 0.03, colour))
         cx, cy = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
         s.landmarks.append(("fence", cx, cy, height))
 
 
-def _lamp_posts(s: _Scene) -> None:
+def _lamp_posts(s: Scene) -> None:
     spec, rng = s.spec.lamp_posts, s.rng
     if spec.count == 0:
         return
@@ -329,7 +346,7 @@ def _lamp_posts(s: _Scene) -> None:
         s.landmarks.append(("lamp_post", x, y, height))
 
 
-def _round_items(s: _Scene, kind: str, spec: ItemsSpec, centres: list[tuple[float, float]]) -> None:
+def _round_items(s: Scene, kind: str, spec: ItemsSpec, centres: list[tuple[float, float]]) -> None:
     """Trees (trunk and crown) or bushes, ``spec.count`` of them, near the ``centres`` in turn
     (within ``3 + width`` metres of them)."""
     rng = s.rng
@@ -381,7 +398,7 @@ def _round_items(s: _Scene, kind: str, spec: ItemsSpec, centres: list[tuple[floa
         s.landmarks.append((kind, x, y, height))
 
 
-def _ring_points(s: _Scene, n: int, near: float, far: float) -> list[tuple[float, float]]:
+def _ring_points(s: Scene, n: int, near: float, far: float) -> list[tuple[float, float]]:
     """``n`` points at random azimuths, ``near`` .. ``far`` metres beyond the pavement."""
     rng = s.rng
     pw = s.spec.pavement_width
@@ -393,7 +410,7 @@ def _ring_points(s: _Scene, n: int, near: float, far: float) -> list[tuple[float
     return out
 
 
-def _check_lanes(s: _Scene, lanes: Lanes) -> None:
+def _check_lanes(s: Scene, lanes: Lanes) -> None:
     """A ValueError when the movers' lanes would run into the scene: the pedestrians' loops
     must fit between the arena's boundary and the lamp posts, the road must lie beyond the
     pavement."""
@@ -417,7 +434,7 @@ def _check_lanes(s: _Scene, lanes: Lanes) -> None:
         )
 
 
-def _road(s: _Scene, lanes: Lanes) -> None:
+def _road(s: Scene, lanes: Lanes) -> None:
     """The road's band, taken before anything else is placed, and its surface: asphalt, the
     cycle path on its near side, a line between them and a centre line between the car
     lanes (flat, just above the grass)."""
@@ -435,14 +452,14 @@ def _road(s: _Scene, lanes: Lanes) -> None:
     # the cycle path sits on the asphalt and the paint on both, a millimetre apart: no depth
     # fighting
     road, cycle_path = (s.b.textured("asphalt", s.material(c)) for c in (_ROAD, _CYCLE_PATH))
-    s.geoms.append(_box_geom("road", rect, -0.009, 0.0005, road))
-    s.geoms.append(_box_geom("cycle_path", band(near, cycle_edge), -0.009, 0.0015, cycle_path))
+    s.geoms.append(box_geom("road", rect, -0.009, 0.0005, road))
+    s.geoms.append(box_geom("cycle_path", band(near, cycle_edge), -0.009, 0.0015, cycle_path))
     lines = [cycle_edge] + [
         (a + b) / 2 for (a, _), (b, _) in zip(lanes.cars, lanes.cars[1:], strict=False)
     ]
     for k, d in enumerate(lines):
         s.geoms.append(
-            _box_geom(f"road_line{k}", band(d - 0.06, d + 0.06), -0.009, 0.0025, s.material(_PAINT))
+            box_geom(f"road_line{k}", band(d - 0.06, d + 0.06), -0.009, 0.0025, s.material(_PAINT))
         )
 
 
@@ -454,13 +471,17 @@ def outer_reach(spec: OutdoorSpec, size: tuple[float, float]) -> float:
     return math.hypot(half + b.depth[1], half + b.length[1])
 
 
-def build_outdoor(b: _Builder, lanes: Lanes | None = None) -> list[Landmark]:
+def build_outdoor(
+    b: _Builder, lanes: Lanes | None = None, rearranged: Rearranged | None = None
+) -> list[Landmark]:
     """Draw the surroundings of ``b.spec.outdoor`` with ``b.rng`` into ``b``'s assets and body,
     keeping the movers' ``lanes`` (from :func:`~sfa_gym.sim.worlds.dynamics.mover_lanes`,
-    None: no movers) free.
+    None: no movers) free; ``rearranged``: another day's parked objects
+    (:mod:`sfa_gym.sim.worlds.rearrange`), None: the world as built.
 
     The order of the draws is fixed (pavement, car side, buildings, cars, fences, lamp posts,
-    tree clusters, bushes), so the same world seed gives the same surroundings.
+    tree clusters, bushes), so the same world seed gives the same surroundings. Another day's
+    parked objects draw from their own generator, after everything else.
 
     Raises:
         ValueError: the world has no outdoor block, or the lanes run into the scene (see
@@ -468,12 +489,14 @@ def build_outdoor(b: _Builder, lanes: Lanes | None = None) -> list[Landmark]:
 
     Returns:
         The landmarks ``(kind, x, y, height)``: kinds "building", "car", "fence", "lamp_post",
-        "tree", "bush"; ``(x, y)`` the footprint's centre (m, world frame).
+        "tree", "bush" (another day also "bin", "bench", "site_fence"); ``(x, y)`` the
+        footprint's centre (m, world frame).
     """
     spec = b.spec.outdoor
     if spec is None:
         raise ValueError(f"world {b.spec.name!r} has no outdoor block")
-    s = _Scene(b, spec)
+    s = Scene(b, spec)
+    s.rearranged = rearranged
     if lanes is not None:
         _check_lanes(s, lanes)
     _pavement(s)
@@ -492,8 +515,10 @@ def build_outdoor(b: _Builder, lanes: Lanes | None = None) -> list[Landmark]:
     _lamp_posts(s)
     _round_items(s, "tree", spec.trees, _ring_points(s, spec.tree_clusters, 1.0, 6.0))
     _round_items(s, "bush", spec.bushes, _ring_points(s, max(1, spec.bushes.count), 0.3, 1.5))
+    if rearranged is not None:
+        rearranged.arrive(s, car_side)
     b.body.extend(s.geoms)
     return s.landmarks
 
 
-__all__ = ["build_outdoor", "outer_reach"]
+__all__ = ["Scene", "Side", "box_geom", "build_outdoor", "outer_reach", "park_car"]
