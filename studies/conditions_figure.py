@@ -1,4 +1,4 @@
-"""The textured outdoor world under each test condition of the appearance tracks, and in winter.
+"""The textured outdoor world under each test condition of the appearance tracks, and by season.
 
     .venv/bin/python -m studies.conditions_figure [--out docs/outdoor_conditions.png]
 
@@ -6,9 +6,10 @@ Writes one figure: the rover at the arena's centre, its mirror camera's 600 x 60
 every method sees) at the start of the test runs of ``outdoor_appearance_textured`` (the
 protocol's own env settings, :meth:`sfa_gym.protocols.outdoor.Config.env_kwargs`): after the
 training run, 4 h later, overcast, without movers, another day, in thick fog and with the
-parked objects of another day (the conditions ``fog`` and ``rearranged``, on no track yet); then the same world on a mid-January and a mid-July day at
-the training hour, and the evening with the camera's auto
-white balance and vignetting. Backs docs/outdoor.md. Run from the repository root.
+parked objects of another day (the conditions ``fog`` and ``rearranged``, on no track yet);
+then the same world on a mid-January, a mid-July and a mid-October day at the training hour,
+the trees' foliage by the date, and the evening with the camera's auto white balance and
+vignetting. Backs docs/outdoor.md. Run from the repository root.
 """
 
 from __future__ import annotations
@@ -65,11 +66,11 @@ def main(args: Args) -> None:
     kwargs = moved.env_kwargs("rearranged", args.world_seed)
     title = f"rearranged (the parked objects of arrangement day 1), {kwargs['start_hour']:.2f} h"
     rows.append((title, _panorama(kwargs)))
-    for day_of_year, name in ((15, "mid-January"), (196, "mid-July")):
-        dated = dataclasses.replace(config, day_of_year=day_of_year)
+    for day_of_year, name in ((15, "mid-January"), (196, "mid-July"), (288, "mid-October")):
+        dated = dataclasses.replace(config, day_of_year=day_of_year, seasons=True)
         rows.append(
             (
-                f"{name}, {config.start_hour:g} h",
+                f"{name}, {config.start_hour:g} h, seasons",
                 _panorama(dated.env_kwargs("after", args.world_seed)),
             )
         )

@@ -35,7 +35,7 @@ def _geoms(mjcf: str) -> list[str]:
 
 
 def _kind(geom: str) -> str:
-    """"car" for "car2_cabin", "site_fence" for "site_fence0_mesh"; "" without a name."""
+    """ "car" for "car2_cabin", "site_fence" for "site_fence0_mesh"; "" without a name."""
     name = re.match(r'<geom (?:name="([^"]*)")?', geom).group(1) or ""
     return re.sub(r"\d.*$", "", name)
 

@@ -63,6 +63,9 @@ class Config:
     None: the world's own sun (rises 6:00, 55 degrees high at 13:00, sets 20:00)"""
     latitude_deg: float | None = None
     """the latitude of the dated sun, degrees north (only with day_of_year; None: 50)"""
+    seasons: bool = False
+    """the trees' foliage by the date (only with day_of_year): leaf-out, autumn colours, bare
+    crowns in winter (sfa_gym.sim.worlds.seasons); False: the crowns as drawn"""
     day: int | None = None
     """the weather and mover day (clouds, schedules) of the drive and of every test run but
     other_day; None: the world's own (day 0)"""
@@ -151,7 +154,7 @@ class Config:
                 "they need dynamics=True"
             )
         self._validate_clock()
-        for name in ("dynamics", "sensor", "vibration", "textures", "white_balance"):
+        for name in ("dynamics", "sensor", "vibration", "textures", "white_balance", "seasons"):
             if not isinstance(getattr(self, name), bool):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
         self._sensor_spec()  # the sensor's own check of vignetting
@@ -195,6 +198,8 @@ class Config:
             check_int("day", self.day)
             if self.day < 0:
                 raise ValueError(f"day must be an integer >= 0, got {self.day!r}")
+        if self.seasons and self.day_of_year is None:
+            raise ValueError("seasons=True sets the foliage by the date: give a day_of_year too")
         given = [n for n in ("day_of_year", "day") if getattr(self, n) is not None]
         if given and not self.dynamics:
             raise ValueError(f"{given} set the world's dynamics: they need dynamics=True")
@@ -259,6 +264,8 @@ class Config:
             for name in ("day_of_year", "latitude_deg", "day")
             if getattr(self, name) is not None
         }
+        if self.seasons:
+            change["seasons"] = True
         return dataclasses.replace(declared, **change) if change else declared
 
     def driver(self, part: Literal["train", "test", "both"]) -> Any:

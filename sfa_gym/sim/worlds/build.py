@@ -18,6 +18,7 @@ from sfa_gym.sim.worlds._mjcf import vec as _vec
 from sfa_gym.sim.worlds.dynamics import DynamicsSpec, Lanes, mover_lanes, movers_mjcf
 from sfa_gym.sim.worlds.outdoor import build_outdoor, outer_reach
 from sfa_gym.sim.worlds.rearrange import rearranged_for
+from sfa_gym.sim.worlds.seasons import foliage_for
 from sfa_gym.sim.worlds.spec import ColourRange, WorldSpec
 from sfa_gym.sim.worlds.texturing import Texturer
 
@@ -442,7 +443,8 @@ def build_world(
         robot: the robot's MJCF pieces (its bodies go into the worldbody).
         dynamics: the dynamics the world runs under, when they are not the spec's own (an
             env's): their ``arrangement`` day places the parked objects of an outdoor world
-            (:mod:`sfa_gym.sim.worlds.rearrange`). None: the spec's.
+            (:mod:`sfa_gym.sim.worlds.rearrange`), their date and ``seasons`` colour its
+            trees (:mod:`sfa_gym.sim.worlds.seasons`). None: the spec's.
 
     Returns:
         The MJCF text of the whole model and the world's layout. The model contains a fixed
@@ -483,8 +485,10 @@ def build_world(
         None if spec.dynamics is None else mover_lanes(spec.dynamics, arena.size, int(world_seed))
     )
     if spec.outdoor is not None:
-        day = rearranged_for(spec.dynamics if dynamics is None else dynamics, int(world_seed))
-        landmarks += build_outdoor(b, lanes, day)
+        runs = spec.dynamics if dynamics is None else dynamics
+        landmarks += build_outdoor(
+            b, lanes, rearranged_for(runs, int(world_seed)), foliage_for(runs, int(world_seed))
+        )
     if spec.dynamics is not None and lanes is not None and spec.dynamics.n_movers:
         # the movers draw from their own generator: the world around them stays the same
         mover_assets, mover_bodies = movers_mjcf(spec.dynamics, lanes, int(world_seed))

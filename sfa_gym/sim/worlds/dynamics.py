@@ -118,6 +118,9 @@ class DynamicsSpec:
             Apart from ``day`` (clouds and movers), so that each change can be had alone.
         rearrange_share: how much another ``arrangement`` changes: the chance that a parked
             car has left, and the expected newcomers per parked car.
+        seasons: the trees' foliage by the date (needs a ``day_of_year``): leaf-out in
+            spring, autumn colours, bare crowns in winter (:mod:`sfa_gym.sim.worlds.seasons`);
+            False: the crowns as drawn, whatever the date.
         road: the road of the cyclists and cars.
         clock, clouds, movers: switch each effect (the clock off holds the sun where it
             stood when the episode started, while clouds and movers go on; the movers off
@@ -146,6 +149,7 @@ class DynamicsSpec:
     visibility_m: float | None = None
     arrangement: int = 0
     rearrange_share: float = 0.5
+    seasons: bool = False
 
     def __post_init__(self) -> None:
         check_value(
@@ -196,12 +200,16 @@ class DynamicsSpec:
             and 0.0 <= self.rearrange_share <= 1.0,
             f"rearrange_share must lie in [0, 1], got {self.rearrange_share!r}",
         )
-        for name in ("clock", "clouds", "movers"):
+        for name in ("clock", "clouds", "movers", "seasons"):
             value = getattr(self, name)
             check_value(isinstance(value, bool), f"{name} must be True or False, got {value!r}")
         check_visibility(self.visibility_m)
         if self.day_of_year is not None:
             check_day_of_year(self.day_of_year)
+        check_value(
+            not self.seasons or self.day_of_year is not None,
+            "seasons=True sets the foliage by the date: give a day_of_year (1..366) too",
+        )
         if self.latitude_deg is not None:
             check_latitude(self.latitude_deg)
             check_value(

@@ -36,6 +36,7 @@ from sfa_gym.sim.worlds.spec import ColourRange, ItemsSpec, OutdoorSpec
 
 if TYPE_CHECKING:
     from sfa_gym.sim.worlds.rearrange import Rearranged
+    from sfa_gym.sim.worlds.seasons import Foliage
 
 Rect = tuple[float, float, float, float]
 """``(xmin, xmax, ymin, ymax)`` of an axis-aligned footprint, metres."""
@@ -125,11 +126,12 @@ class Scene:
         self.taken: list[Rect] = [(-self.hx - pw, self.hx + pw, -self.hy - pw, self.hy + pw)]
         self.geoms: list[str] = []
         self.landmarks: list[Landmark] = []
-        self.materials: dict[tuple[float, float, float], str] = {}
+        self.materials: dict[tuple[tuple[float, float, float], float], str] = {}
         # where the movers go (the pavement and the road): tree crowns above them are lifted
         self.lanes: list[Rect] = []
         # another day's parked objects (sfa_gym.sim.worlds.rearrange); None: as built
         self.rearranged: Rearranged | None = None
+        self.foliage: Foliage | None = None  # the trees' crowns by the date; None: as drawn
 
     def free(self, rect: Rect) -> bool:
         return not any(_overlaps(rect, t) for t in self.taken)
@@ -143,11 +145,12 @@ class Scene:
                 return rect
         return None
 
-    def material(self, rgb: tuple[float, float, float]) -> str:
-        """A matte material of colour ``rgb``, shared by every geom of that colour."""
-        if rgb not in self.materials:
-            self.materials[rgb] = self.b.plain_material(rgb)
-        return self.materials[rgb]
+    def material(self, rgb: tuple[float, float, float], alpha: float = 1.0) -> str:
+        """A matte material of colour ``rgb`` (and opacity ``alpha``), shared by every geom of
+        that colour."""
+        if (rgb, alpha) not in self.materials:
+            self.materials[rgb, alpha] = self.b.plain_material(rgb, alpha)
+        return self.materials[rgb, alpha]
 
     def name(self, kind: str) -> str:
         return f"{kind}{sum(1 for k, *_ in self.landmarks if k == kind)}"
@@ -368,7 +371,11 @@ def _round_items(s: Scene, kind: str, spec: ItemsSpec, centres: list[tuple[float
             continue
         x, y = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
         name = s.name(kind)
-        crown = s.b.textured("bush" if kind == "bush" else "foliage", s.material(colour))
+        alpha = 1.0
+        if kind == "tree" and s.foliage is not None:
+            colour, alpha = s.foliage.crown(colour)
+        surface = "bush" if kind == "bush" else "foliage"
+        crown = s.b.textured(surface, s.material(colour, alpha), alpha=alpha)
         if kind == "bush":
             s.geoms.append(
                 f'<geom name="{name}" type="ellipsoid" pos="{_vec(x, y, height * 0.45)}" '
@@ -472,12 +479,16 @@ def outer_reach(spec: OutdoorSpec, size: tuple[float, float]) -> float:
 
 
 def build_outdoor(
-    b: _Builder, lanes: Lanes | None = None, rearranged: Rearranged | None = None
+    b: _Builder,
+    lanes: Lanes | None = None,
+    rearranged: Rearranged | None = None,
+    foliage: Foliage | None = None,
 ) -> list[Landmark]:
     """Draw the surroundings of ``b.spec.outdoor`` with ``b.rng`` into ``b``'s assets and body,
     keeping the movers' ``lanes`` (from :func:`~sfa_gym.sim.worlds.dynamics.mover_lanes`,
     None: no movers) free; ``rearranged``: another day's parked objects
-    (:mod:`sfa_gym.sim.worlds.rearrange`), None: the world as built.
+    (:mod:`sfa_gym.sim.worlds.rearrange`), None: the world as built; ``foliage``: the trees'
+    crowns by the date (:mod:`sfa_gym.sim.worlds.seasons`), None: as drawn.
 
     The order of the draws is fixed (pavement, car side, buildings, cars, fences, lamp posts,
     tree clusters, bushes), so the same world seed gives the same surroundings. Another day's
@@ -496,7 +507,7 @@ def build_outdoor(
     if spec is None:
         raise ValueError(f"world {b.spec.name!r} has no outdoor block")
     s = Scene(b, spec)
-    s.rearranged = rearranged
+    s.rearranged, s.foliage = rearranged, foliage
     if lanes is not None:
         _check_lanes(s, lanes)
     _pavement(s)

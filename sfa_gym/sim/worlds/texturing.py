@@ -93,6 +93,7 @@ class Texturer:
         rgb: RGB,
         assets: list[str],
         repeat: tuple[float, float] | None = None,
+        alpha: float = 1.0,
         **extra: Any,
     ) -> str:
         """The name of a textured material for ``surface`` in place of material ``source``;
@@ -106,6 +107,7 @@ class Texturer:
             assets: the builder's asset list.
             repeat: texture repeats per face (facades: windows and storeys per face); None:
                 one tile per ``tile_m`` metres (ground surfaces) or a cube texture.
+            alpha: the material's opacity (below 1: see-through).
             extra: the facade's ``glass`` colour and ``bay_m`` (width, height).
         """
         key = (surface, source)
@@ -115,6 +117,8 @@ class Texturer:
         self._made[key] = name
         self.files[f"{name}.png"] = _tx.png_bytes(self.image(surface, source, rgb, **extra))
         plain = 'specular="0" shininess="0"'
+        if alpha != 1.0:
+            plain += f' rgba="1 1 1 {_fmt(alpha)}"'
         if surface in CUBE_SURFACES:
             assets.append(f'<texture name="tex_{name}" type="cube" file="{name}.png"/>')
             assets.append(f'<material name="{name}" texture="tex_{name}" {plain}/>')
