@@ -49,7 +49,24 @@ def test_each_condition_changes_one_thing_against_the_run_right_after_training()
         "other_day",
         "fog",
         "rearranged",
+        "other_season",
     }
+
+
+def test_other_seasons_test_later_in_the_year_with_the_seasons_of_the_drive():
+    config = OutdoorExperiment(
+        day_of_year=300,
+        seasons=True,
+        conditions=("after", "other_season"),
+        season_days=(92, 183),
+    )
+    assert config.test_conditions == ("after", "other_season+92d", "other_season+183d")
+    drive = config.env_kwargs("after", 0)["dynamics"]
+    assert (drive.day_of_year, drive.seasons) == (300, True)
+    for name, date in (("other_season+92d", 27), ("other_season+183d", 118)):  # wraps the year
+        kwargs = config.env_kwargs(name, 0)
+        assert kwargs.pop("dynamics") == dataclasses.replace(drive, day_of_year=date)
+        assert kwargs["start_hour"] == pytest.approx(config.start_hour + 590.0 / 3600.0)
 
 
 def test_ablation_switches_reach_the_env_kwargs():
@@ -77,6 +94,12 @@ def test_ablation_switches_reach_the_env_kwargs():
         ({"normalise": "equalise"}, "normalise must be one of"),
         ({"train_also": (0.0,)}, "train_also must be a tuple of non-zero hours"),
         ({"train_also": (2.0,), "dynamics": False}, "train_also .* needs dynamics=True"),
+        ({"conditions": ("after", "other_season")}, "other_season .* give a day_of_year|date the"),
+        (
+            {"conditions": ("after", "other_season"), "day_of_year": 100, "season_days": 365},
+            r"season_days must be a whole number of days in 1\.\.364",
+        ),
+        ({"seasons": True}, "seasons=True sets the foliage by the date: give a day_of_year"),
     ],
 )
 def test_bad_settings_are_named(changes, match):

@@ -90,8 +90,9 @@ class LocalizeOutdoor(_Protocol):
     """The paper's outdoor experiment in the outdoor world (sfa_gym/OmniRoverOutdoor-v0): 5900
     training frames, 2800 test frames right after through a region never visited in training,
     and the appearance tracks (--conditions after later overcast no_movers other_day fog
-    rearranged); the sun of a date and place (--day-of-year 15 --latitude-deg 50), several
-    later offsets (--later-hours 2 6) and other days (--other-days 1 2) in one run."""
+    rearranged other_season); the sun of a date and place (--day-of-year 15 --latitude-deg 50,
+    --seasons for the foliage), several later offsets (--later-hours 2 6), other days
+    (--other-days 1 2) and seasons (--season-days 92 183) in one run."""
 
     settings: tyro.conf.OmitArgPrefixes[OutdoorExperiment] = OutdoorExperiment()
     """settings of the outdoor protocol"""

@@ -10,7 +10,9 @@ unless given; ``other_day`` is ``other_days`` after it. Several ``later_hours`` 
 single one keeps the plain name (``later``, ``other_day``) and the runs of before.
 ``rearranged`` is the drive's day with the parked objects of the next arrangement day (cars
 that left or came, bins, benches, a building-site fence: :mod:`sfa_gym.sim.worlds.rearrange`)
-and nothing else changed; ``other_day`` changes the clouds and movers only.
+and nothing else changed; ``other_day`` changes the clouds and movers only. ``other_season``
+(a dated drive only) is the test path ``season_days`` later in the year at the same hour: the
+sun of that date and, with ``seasons``, the trees' foliage (several: ``other_season+92d``, ...).
 """
 
 from __future__ import annotations
@@ -32,7 +34,9 @@ __all__ = ["CONDITIONS", "ENV_ID", "Camera", "Condition", "Config"]
 
 ENV_ID = "sfa_gym/OmniRoverOutdoor-v0"
 """The env every outdoor run is rendered in."""
-Condition = Literal["after", "later", "overcast", "no_movers", "other_day", "fog", "rearranged"]
+Condition = Literal[
+    "after", "later", "overcast", "no_movers", "other_day", "fog", "rearranged", "other_season"
+]
 CONDITIONS: tuple[str, ...] = get_args(Condition)
 """The kinds of test condition (see the module docstring); ``later`` and ``other_day`` give one
 condition per offset when their offsets are a tuple (:meth:`Config.test_conditions`)."""
@@ -71,8 +75,8 @@ class Config:
     other_day; None: the world's own (day 0)"""
     conditions: tuple[Condition, ...] = ("after",)
     """test conditions scored (appearance tracks): after, later, overcast, no_movers,
-    other_day, fog, rearranged; "after" is scored always, a track's score is the mean over
-    these"""
+    other_day, fog, rearranged, other_season; "after" is scored always, a track's score is
+    the mean over these"""
     later_hours: float | tuple[float, ...] = 4.0
     """the "later" test run starts this many hours after the "after" one; several
     (--later-hours 2 6): one condition each, named later+2h, later+6h"""
@@ -80,6 +84,10 @@ class Config:
     """the "other_day" test run is this many days after the drive's day (other clouds and
     schedules, the same date); several (--other-days 1 2): one condition each, named
     other_day+1, other_day+2"""
+    season_days: int | tuple[int, ...] = 92
+    """the "other_season" test run is this many days later in the year than the drive (a
+    dated drive: day_of_year), at the same hour; several (--season-days 92 183): one condition
+    each, named other_season+92d, other_season+183d"""
     fog_visibility_m: float = 100.0
     """the "fog" test run: an overcast day (thick fog hides the sun) seen through fog of this
     meteorological visibility, m (thick fog: 50-200; sfa_gym.sim.camera.fog)"""
@@ -203,9 +211,15 @@ class Config:
         given = [n for n in ("day_of_year", "day") if getattr(self, n) is not None]
         if given and not self.dynamics:
             raise ValueError(f"{given} set the world's dynamics: they need dynamics=True")
+        if "other_season" in self.conditions and self.day_of_year is None:
+            raise ValueError(
+                "the other_season condition tests on a date season_days after the drive's: "
+                "date the drive with a day_of_year (1..366)"
+            )
         for name, offsets, condition in (
             ("later_hours", self.later_hours, "later"),
             ("other_days", self.other_days, "other_day"),
+            ("season_days", self.season_days, "other_season"),
         ):
             several = isinstance(offsets, tuple | list)
             for value in offsets if several else (offsets,):
@@ -220,6 +234,13 @@ class Config:
                     raise ValueError(
                         f"other_days must be a whole number of days >= 1 or a tuple of them, "
                         f"got {value!r}"
+                    )
+                if name == "season_days" and (
+                    isinstance(value, bool) or not isinstance(value, int) or not 1 <= value < 365
+                ):
+                    raise ValueError(
+                        f"season_days must be a whole number of days in 1..364 or a tuple of "
+                        f"them, got {value!r}"
                     )
             if not several:
                 continue
@@ -236,15 +257,18 @@ class Config:
 
     def offsets(self) -> dict[str, tuple[Condition, float]]:
         """Each test condition, by name, with its kind and its offset (hours after the
-        ``after`` run for ``later``, days after the drive's for ``other_day``, else 0), in the
-        order of ``conditions``. A single offset keeps the kind's own name (``later``,
-        ``other_day``); a tuple of them gives ``later+2h``, ``other_day+2``, ..."""
+        ``after`` run for ``later``, days after the drive's for ``other_day``, days later in
+        the year for ``other_season``, else 0), in the order of ``conditions``. A single offset
+        keeps the kind's own name (``later``, ``other_day``, ``other_season``); a tuple of them
+        gives ``later+2h``, ``other_day+2``, ``other_season+92d``, ..."""
         out: dict[str, tuple[Condition, float]] = {}
         for condition in self.conditions:
             if condition == "later":
                 out.update(_named("later", self.later_hours, _SUFFIX["later"]))
             elif condition == "other_day":
                 out.update(_named("other_day", self.other_days, _SUFFIX["other_day"]))
+            elif condition == "other_season":
+                out.update(_named("other_season", self.season_days, _SUFFIX["other_season"]))
             else:
                 out[condition] = (condition, 0)
         return out
@@ -320,6 +344,8 @@ class Config:
             "fog": {"overcast": 1.0, "visibility_m": self.fog_visibility_m},
             "rearranged": {"arrangement": spec.arrangement + 1},
         }
+        if kind == "other_season":  # a dated drive (checked): its date that many days on
+            change[kind] = {"day_of_year": (spec.day_of_year - 1 + int(offset)) % 365 + 1}
         spec = dataclasses.replace(spec, **change[kind])
         return {**kwargs, "start_hour": hour, "dynamics": spec}
 
@@ -335,7 +361,11 @@ class Config:
         offsets = self.offsets()
         if name in offsets:
             return offsets[name]
-        single = {"later": self.later_hours, "other_day": self.other_days}.get(name, 0)
+        single = {
+            "later": self.later_hours,
+            "other_day": self.other_days,
+            "other_season": self.season_days,
+        }.get(name, 0)
         if name in CONDITIONS and not isinstance(single, tuple | list):
             return name, single  # type: ignore[return-value]
         raise ValueError(
@@ -349,7 +379,7 @@ class Config:
         return {"dynamics": self.world_dynamics()} if dated else {}
 
 
-_SUFFIX = {"later": "{:+g}h", "other_day": "{:+d}"}
+_SUFFIX = {"later": "{:+g}h", "other_day": "{:+d}", "other_season": "{:+d}d"}
 """How a condition of several offsets names each: ``later+2h``, ``other_day+2``."""
 
 
