@@ -1,9 +1,10 @@
-"""Benchmark: what the camera's optional effects (auto white balance, vignetting, fog) cost per
-step.
+"""Benchmark: what the optional effects (auto white balance, vignetting, fog, another day's
+parked objects, the seasons' foliage) cost per step.
 
 The registered ``OmniRoverOutdoor-v0`` (mirror camera, dynamics, auto-exposure and noise: the
 reference) against the same env with each effect switched on (fog: the dynamics' visibility,
-which reads the depth buffer beside the colours), all driving the
+which reads the depth buffer beside the colours; parked objects: the dynamics' arrangement 1;
+seasons: mid-January with seasons on, whose bare crowns are see-through), all driving the
 same commands (a slow curve) from the same start, timed in interleaved batches
 (:func:`benchmarks.bench_outdoor.time_steps`) and reported as the median CPU time of the process
 per step and its ratio to the reference measured in the same process (CPU time: on a shared
@@ -61,6 +62,12 @@ def main(args: Args) -> None:
     foggy = dataclasses.replace(envs["OmniRoverOutdoor-v0"].dynamics, visibility_m=FOG_VISIBILITY_M)
     fog = f"+ fog, visibility {FOG_VISIBILITY_M:g} m"
     envs[fog] = gym.make("sfa_gym/OmniRoverOutdoor-v0", dynamics=foggy).unwrapped
+    for name, change in (
+        ("+ another day's parked objects", {"arrangement": 1}),
+        ("+ seasons, mid-January", {"day_of_year": 15, "seasons": True}),
+    ):
+        changed = dataclasses.replace(envs["OmniRoverOutdoor-v0"].dynamics, **change)
+        envs[name] = gym.make("sfa_gym/OmniRoverOutdoor-v0", dynamics=changed).unwrapped
     wall, cpu = time_steps(envs, args.steps, args.repeats)
     reference = statistics.median(cpu[next(iter(SENSORS))])
     rows = {
