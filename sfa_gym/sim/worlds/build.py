@@ -441,10 +441,8 @@ def build_world(
         spec: the world spec.
         world_seed: seed of ``np.random.default_rng``; same seed -> identical MJCF text.
         robot: the robot's MJCF pieces (its bodies go into the worldbody).
-        dynamics: the dynamics the world runs under, when they are not the spec's own (an
-            env's): their ``arrangement`` day places the parked objects of an outdoor world
-            (:mod:`sfa_gym.sim.worlds.rearrange`), their date and ``seasons`` colour its
-            trees (:mod:`sfa_gym.sim.worlds.seasons`). None: the spec's.
+        dynamics: the dynamics it runs under (an env's; None: the spec's): an outdoor world's
+            parked objects of their ``arrangement`` day, its trees of their date (``seasons``).
 
     Returns:
         The MJCF text of the whole model and the world's layout. The model contains a fixed
@@ -458,7 +456,6 @@ def build_world(
         b.textures = Texturer(spec.textures, int(world_seed))
     arena = spec.arena
     hx, hy = arena.size[0] / 2, arena.size[1] / 2
-
     zenith, horizon = spec.sky.zenith.draw(rng), spec.sky.horizon.draw(rng)
     b.assets.append(
         f'<texture name="sky" type="skybox" builtin="gradient" rgb1="{_vec(*zenith)}" '
@@ -471,8 +468,7 @@ def build_world(
         reach = max(reach, outer_reach(spec.outdoor, arena.size))
     ground_half = 4 * reach
     _boundary(b)
-    # The rover drives on the ground plane (plane contacts are exact and cheap); the floor
-    # is a visual tile lying a millimetre above it.
+    # The rover drives on the ground plane (exact, cheap contacts); the floor is a visual tile.
     b.body.append(
         f'<geom name="floor" type="box" pos="0 0 -0.004" size="{_vec(hx, hy, 0.005)}" '
         f'material="{floor}" contype="0" conaffinity="0"/>'
@@ -481,23 +477,19 @@ def build_world(
     landmarks = _landmarks(b)
     # the movers' lanes come from the world seed alone (not from b.rng): one function for the
     # scene, which keeps them free, and the movers, which keep to them
-    lanes = (
-        None if spec.dynamics is None else mover_lanes(spec.dynamics, arena.size, int(world_seed))
-    )
+    seed = int(world_seed)
+    lanes = None if spec.dynamics is None else mover_lanes(spec.dynamics, arena.size, seed)
     if spec.outdoor is not None:
-        runs = spec.dynamics if dynamics is None else dynamics
-        landmarks += build_outdoor(
-            b, lanes, rearranged_for(runs, int(world_seed)), foliage_for(runs, int(world_seed))
-        )
+        day = spec.dynamics if dynamics is None else dynamics  # its parked objects and trees
+        landmarks += build_outdoor(b, lanes, rearranged_for(day, seed), foliage_for(day, seed))
     if spec.dynamics is not None and lanes is not None and spec.dynamics.n_movers:
         # the movers draw from their own generator: the world around them stays the same
-        mover_assets, mover_bodies = movers_mjcf(spec.dynamics, lanes, int(world_seed))
+        mover_assets, mover_bodies = movers_mjcf(spec.dynamics, lanes, seed)
         b.assets.append(mover_assets)
         b.body.append(mover_bodies)
-    # Geoms are drawn in model order: near occluders first and the ground last lets the
-    # depth test discard hidden ground pixels early (about 10 % faster on llvmpipe). The
-    # plane's third size is its rendering grid: with directional and ambient light only, one
-    # coarse grid looks like a fine one and renders faster.
+    # Geoms are drawn in model order: the ground last lets the depth test discard its hidden
+    # pixels early (about 10 % faster on llvmpipe). The plane's third size is its rendering
+    # grid: under directional and ambient light a coarse one looks like a fine one, faster.
     ground_index = len(b.body)
     b.body.append(
         f'<geom name="ground" type="plane" size="{_vec(ground_half, ground_half, ground_half)}" '

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from sfa_gym.sim.worlds._mjcf import Builder as _Builder
 from sfa_gym.sim.worlds._mjcf import vec as _vec
@@ -35,7 +35,6 @@ from sfa_gym.sim.worlds.dynamics import FOOTPRINT, Lanes
 from sfa_gym.sim.worlds.spec import ColourRange, ItemsSpec, OutdoorSpec
 
 if TYPE_CHECKING:
-    from sfa_gym.sim.worlds.rearrange import Rearranged
     from sfa_gym.sim.worlds.seasons import Foliage
 
 Rect = tuple[float, float, float, float]
@@ -57,6 +56,15 @@ _CROWN_CLEAR = 2.2  # lowest point of a tree crown over the movers' lanes (m)
 _ROAD = (0.16, 0.16, 0.17)  # asphalt of the road
 _CYCLE_PATH = (0.45, 0.22, 0.2)  # red-brown cycle path
 _PAINT = (0.92, 0.92, 0.88)  # lane markings
+
+
+class DayChanges(Protocol):
+    """Another day's parked objects (:class:`sfa_gym.sim.worlds.rearrange.Rearranged`, which
+    draws with this module's helpers)."""
+
+    def stays(self, place: Rect) -> bool: ...
+
+    def arrive(self, s: Scene, car_side: Side) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -130,7 +138,7 @@ class Scene:
         # where the movers go (the pavement and the road): tree crowns above them are lifted
         self.lanes: list[Rect] = []
         # another day's parked objects (sfa_gym.sim.worlds.rearrange); None: as built
-        self.rearranged: Rearranged | None = None
+        self.rearranged: DayChanges | None = None
         self.foliage: Foliage | None = None  # the trees' crowns by the date; None: as drawn
 
     def free(self, rect: Rect) -> bool:
@@ -481,7 +489,7 @@ def outer_reach(spec: OutdoorSpec, size: tuple[float, float]) -> float:
 def build_outdoor(
     b: _Builder,
     lanes: Lanes | None = None,
-    rearranged: Rearranged | None = None,
+    rearranged: DayChanges | None = None,
     foliage: Foliage | None = None,
 ) -> list[Landmark]:
     """Draw the surroundings of ``b.spec.outdoor`` with ``b.rng`` into ``b``'s assets and body,
