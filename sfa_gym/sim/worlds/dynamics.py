@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym._checks import is_number
 from sfa_gym.sim.camera.fog import check_visibility
 
 # the movers live in their own module; their public names are re-exported here
@@ -195,9 +196,7 @@ class DynamicsSpec:
             f"{self.arrangement!r}",
         )
         check_value(
-            isinstance(self.rearrange_share, int | float)
-            and not isinstance(self.rearrange_share, bool)
-            and 0.0 <= self.rearrange_share <= 1.0,
+            is_number(self.rearrange_share) and 0.0 <= self.rearrange_share <= 1.0,
             f"rearrange_share must lie in [0, 1], got {self.rearrange_share!r}",
         )
         for name in ("clock", "clouds", "movers", "seasons"):
