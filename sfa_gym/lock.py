@@ -133,11 +133,11 @@ def cpu_numerics() -> dict[str, list[str]]:
         simd = ["unknown"]
     else:
         simd = [name for name in __cpu_dispatch__ if __cpu_features__.get(name)]
-    blas = [
+    blas = sorted(  # in a fixed order: the libraries load in an order that varies
         f"{info.get('internal_api')} {info.get('version')} {info.get('architecture')}"
         for info in threadpool_info()
         if info.get("user_api") == "blas"
-    ]
+    )
     return {"simd": simd, "blas": blas}
 
 
