@@ -1,10 +1,11 @@
 """Benchmark: what the optional effects (auto white balance, vignetting, fog, another day's
-parked objects, the seasons' foliage) cost per step.
+parked objects, the seasons' foliage, cast shadows) cost per step.
 
 The registered ``OmniRoverOutdoor-v0`` (mirror camera, dynamics, auto-exposure and noise: the
 reference) against the same env with each effect switched on (fog: the dynamics' visibility,
 which reads the depth buffer beside the colours; parked objects: the dynamics' arrangement 1;
-seasons: mid-January with seasons on, whose bare crowns are see-through), all driving the
+seasons: mid-January with seasons on, whose bare crowns are see-through; shadows: the sun's
+depth map and every view rendered a second time without the sun), all driving the
 same commands (a slow curve) from the same start, timed in interleaved batches
 (:func:`benchmarks.bench_outdoor.time_steps`) and reported as the median CPU time of the process
 per step and its ratio to the reference measured in the same process (CPU time: on a shared
@@ -65,6 +66,7 @@ def main(args: Args) -> None:
     for name, change in (
         ("+ another day's parked objects", {"arrangement": 1}),
         ("+ seasons, mid-January", {"day_of_year": 15, "seasons": True}),
+        ("+ cast shadows", {"shadows": True}),
     ):
         changed = dataclasses.replace(envs["OmniRoverOutdoor-v0"].dynamics, **change)
         envs[name] = gym.make("sfa_gym/OmniRoverOutdoor-v0", dynamics=changed).unwrapped

@@ -4,7 +4,8 @@ its change over 0.3 m.
 For each outdoor appearance track and world seed, the test path is recorded once as the drive's
 test part (``after``) and once per condition (the track's: 4 h later, overcast, without movers,
 another day; and ``--extra`` conditions on no track yet: thick fog, another day's parked
-objects), with the same driver and seed. For every ``--every``-th test frame this compares
+objects), with the same driver and seed; with ``--shadows``, every run casts the sun's
+shadows. For every ``--every``-th test frame this compares
 
 - *fixed pose*: the condition's panorama with the ``after`` panorama of the same frame (the
   rover's pose is the same up to the physics' round-off; the table reports the largest
@@ -52,6 +53,8 @@ class Args:
     """the move the fixed-pose change is compared with, m"""
     extra: tuple[str, ...] = ("fog", "rearranged")
     """conditions compared beyond the track's own (sfa_gym.protocols.outdoor.CONDITIONS)"""
+    shadows: bool = False
+    """every run (the drive and each condition) with the sun's cast shadows"""
     cache: Path | None = None
     """the render cache (default: sfa_gym.recording.cache.default_cache_dir())"""
     out: Path = ROOT / "published" / "studies" / "appearance_change.json"
@@ -86,7 +89,9 @@ def seed_changes(track: Any, world_seed: int, runs: Any, args: Args) -> dict[str
 
     config = track.config(False)
     extra = tuple(c for c in args.extra if c not in config.conditions)
-    config = dataclasses.replace(config, conditions=(*config.conditions, *extra))
+    config = dataclasses.replace(
+        config, conditions=(*config.conditions, *extra), shadows=config.shadows or args.shadows
+    )
     got = {
         name: runs.get(request) for name, request in outdoor.requests(config, world_seed).items()
     }
@@ -154,7 +159,9 @@ def main(args: Args) -> None:
         args.out,
         {
             "study": "appearance_change",
-            "command": "python -m studies.appearance_change",
+            "command": "python -m studies.appearance_change"
+            + (" --shadows" if args.shadows else ""),
+            "shadows": args.shadows,
             "distance_m": args.distance,
             "every": args.every,
             "results": results,

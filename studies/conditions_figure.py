@@ -80,10 +80,8 @@ def main(args: Args) -> None:
         title = "18.5 h" + (", auto white balance, vignetting 0.3" if white_balance else "")
         rows.append((title, _panorama(camera.env_kwargs("after", args.world_seed))))
     # 6 inches: the panoramas' own 600 columns, no pixel repeated
-    height = sum(6.0 * image.shape[0] / image.shape[1] + 0.25 for _, image in rows)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    prefix = f"textured paper_outdoor seed {args.world_seed}"
-    save_strip(rows, args.out, prefix, height, width=6.0)
+    save_strip(rows, args.out, f"textured paper_outdoor seed {args.world_seed}", width=6.0)
     print(f"wrote {args.out} ({args.out.stat().st_size / 1e3:.0f} kB)")
 
 

@@ -45,13 +45,15 @@ def save_strip(
     rows: list[tuple[str, np.ndarray]],
     path: Path,
     prefix: str,
-    height: float,
+    height: float | None = None,
     interpolation: str = "nearest",
     width: float = 10.0,
 ) -> None:
     """Panoramas one above the other, each titled ``prefix, title``, in a figure ``width``
-    inches wide (100 pixels each) and ``height`` high; rows of other aspects get heights in
-    proportion."""
+    inches wide (100 pixels each) and ``height`` high (None: each row at its own aspect, with
+    room for its title); rows of other aspects get heights in proportion."""
+    if height is None:
+        height = sum(width * image.shape[0] / image.shape[1] + 0.25 for _, image in rows)
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(width, height), layout="constrained")

@@ -70,6 +70,9 @@ class Config:
     seasons: bool = False
     """the trees' foliage by the date (only with day_of_year): leaf-out, autumn colours, bare
     crowns in winter (sfa_gym.sim.worlds.seasons); False: the crowns as drawn"""
+    shadows: bool = False
+    """the sun's cast shadows, moving with the clock (sfa_gym.sim.camera.shadows; about twice
+    the rendering time)"""
     day: int | None = None
     """the weather and mover day (clouds, schedules) of the drive and of every test run but
     other_day; None: the world's own (day 0)"""
@@ -162,7 +165,8 @@ class Config:
                 "they need dynamics=True"
             )
         self._validate_clock()
-        for name in ("dynamics", "sensor", "vibration", "textures", "white_balance", "seasons"):
+        switches = ("dynamics", "sensor", "vibration", "textures", "white_balance", "seasons")
+        for name in (*switches, "shadows"):
             if not isinstance(getattr(self, name), bool):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
         self._sensor_spec()  # the sensor's own check of vignetting
@@ -288,8 +292,7 @@ class Config:
             for name in ("day_of_year", "latitude_deg", "day")
             if getattr(self, name) is not None
         }
-        if self.seasons:
-            change["seasons"] = True
+        change.update({name: True for name in ("seasons", "shadows") if getattr(self, name)})
         return dataclasses.replace(declared, **change) if change else declared
 
     def driver(self, part: Literal["train", "test", "both"]) -> Any:
@@ -373,10 +376,10 @@ class Config:
         )
 
     def _dated(self) -> dict[str, Any]:
-        """``{"dynamics": ...}`` when a date or day is given, else nothing: the env's own
-        dynamics (the runs of before, under the same cache keys)."""
+        """``{"dynamics": ...}`` when a date or day is given or shadows are on, else nothing:
+        the env's own dynamics (the runs of before, under the same cache keys)."""
         dated = any(getattr(self, n) is not None for n in ("day_of_year", "latitude_deg", "day"))
-        return {"dynamics": self.world_dynamics()} if dated else {}
+        return {"dynamics": self.world_dynamics()} if dated or self.shadows else {}
 
 
 _SUFFIX = {"later": "{:+g}h", "other_day": "{:+d}", "other_season": "{:+d}d"}

@@ -165,8 +165,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
       ("paper_outdoor", the default); a given ``panorama`` sets the unwarped size.
     * ``dynamics`` (None): None runs what the world spec declares; False none; True the
       world's or the default ``DynamicsSpec``; or a ``DynamicsSpec``.
-    * ``clock``, ``clouds``, ``movers`` (None): switch one effect of the dynamics on or off
-      (None keeps the spec's); ``start_hour`` (None): the time of day the clock starts at.
+    * ``clock``, ``clouds``, ``movers``, ``shadows`` (None): switch one effect of the dynamics
+      on or off (None keeps the spec's); ``start_hour`` (None): the time of day the clock
+      starts at.
     * ``sensor`` (None): the camera's auto-exposure and noise: None or False for none, True
       for the default ``SensorSpec``, or a ``SensorSpec`` (which also switches on auto white
       balance and a mirror camera's vignetting); ``auto_exposure`` and ``sensor_noise``
@@ -226,6 +227,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         clock: bool | None = None,
         clouds: bool | None = None,
         movers: bool | None = None,
+        shadows: bool | None = None,
         start_hour: float | None = None,
         sensor: bool | SensorSpec | None = None,
         auto_exposure: bool | None = None,
@@ -274,7 +276,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         self.dynamics = resolve_dynamics(
             self.world_spec.dynamics,
             dynamics,
-            {"clock": clock, "clouds": clouds, "movers": movers},
+            {"clock": clock, "clouds": clouds, "movers": movers, "shadows": shadows},
             start_hour,
         )
         self.sensor = resolve_sensor(sensor, auto_exposure, sensor_noise)
@@ -315,10 +317,11 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
                 self.dynamics, self.model, self.world_spec.arena.size, world_seed, built.lanes
             )
         )
-        if self.dynamics is not None and self.dynamics.visibility_m is not None:
+        if self.dynamics is not None:
             camera = self._camera
             views = camera.view_camera if isinstance(camera, MirrorCamera) else camera
             views.visibility_m = self.dynamics.visibility_m
+            views.shadows = self.dynamics.shadows
         # time of day (s since midnight): set on the first reset, then it runs on
         self._clock: float | None = None
         self._sun_time: float | None = None  # where the sun is held with the clock off

@@ -32,6 +32,11 @@ from sfa_gym.sim.camera.projection import (  # noqa: E402
     _view_fovy_deg,
     heading_phases,
 )
+from sfa_gym.sim.camera.shadows import (  # noqa: E402
+    MAP_TEXELS,
+    SunShadows,
+    without_light,
+)
 
 __all__ = ["OmniCamera", "headlight_to_eye", "sample_nearest"]
 
@@ -198,6 +203,9 @@ class OmniCamera:
         self._smooth_skies = _smooth_skyboxes(model)
         self.visibility_m: float | None = None
         """fog's meteorological visibility (m), or None: clear air (:mod:`.fog`)"""
+        self.shadows = False
+        """the sun's cast shadows (:mod:`.shadows`); the model needs a light named 'sun'"""
+        self._sun_shadows: SunShadows | None = None
 
     @property
     def smooth_skies(self) -> list[int]:
@@ -209,18 +217,24 @@ class OmniCamera:
 
     def _ensure_context(self) -> None:
         gl.check_owner(self._owner_pid, "OmniCamera")
+        if self._con is not None and self.shadows and self._con.offWidth < MAP_TEXELS:
+            self.close()  # shadows switched on after the first render: a larger buffer
         if self._con is not None:
             gl.check_usable()
             self._gl.make_current()
             return
         lay, vis = self._layout, self.model.vis
+        # the sun's depth map (shadows) is drawn into the same offscreen buffer
+        side = MAP_TEXELS if self.shadows else 0
+        if side:
+            gl.check_framebuffer(side, side, f"{self.spec} with shadows")
         gl_context = gl.new_context(lay.buffer_w, lay.buffer_h, str(self.spec))
         # MjrContext sizes its offscreen buffer from the model. No MSAA: supersampling is
         # cheaper on a CPU rasteriser.
         saved = (vis.global_.offwidth, vis.global_.offheight, vis.quality.offsamples)
         try:
-            vis.global_.offwidth = lay.buffer_w
-            vis.global_.offheight = lay.buffer_h
+            vis.global_.offwidth = max(lay.buffer_w, side)
+            vis.global_.offheight = max(lay.buffer_h, side)
             vis.quality.offsamples = 0
             con = mujoco.MjrContext(self.model, mujoco.mjtFontScale.mjFONTSCALE_50)
         except Exception:
@@ -267,7 +281,8 @@ class OmniCamera:
         ]
         self._full_rect = mujoco.MjrRect(0, 0, lay.buffer_w, lay.buffer_h)
         self._buffer = np.empty((lay.buffer_h, lay.buffer_w, 3), dtype=np.uint8)
-        self._depth: NDArray[np.float32] | None = None  # read only in fog
+        self._depth: NDArray[np.float32] | None = None  # read only in fog and with shadows
+        self._unlit: NDArray[np.uint8] | None = None  # the views without the sun (shadows)
         self._ray_lengths: NDArray[np.float32] | None = None
         s = self.spec.supersample
         self._fine = np.empty((self.spec.height * s, self.spec.width * s, 3), dtype=np.uint8)
@@ -432,11 +447,22 @@ class OmniCamera:
         )
         self._headlight_at_eye()
         eye, frames, shift, phase = self._view_frames(data)
+        sun = None
+        if self.shadows:
+            if self._sun_shadows is None:
+                self._sun_shadows = SunShadows(self.model)
+            sun = self._sun_shadows.scene_sun(self._scene)
+            if sun is not None:
+                self._sun_shadows.update(data, self._scene, self._con)
         self._render_views(data, eye, frames)
-        if self.visibility_m is None:
+        if self.visibility_m is None and sun is None:
             mujoco.mjr_readPixels(self._buffer, None, self._full_rect, self._con)
         else:
-            self._read_in_fog(data, check_visibility(self.visibility_m))
+            self._read_depth()
+            if sun is not None:
+                self._apply_shadows(data, eye, frames, sun)
+            if self.visibility_m is not None:
+                self._apply_fog(data, check_visibility(self.visibility_m))
         map_x, map_y = self._remap_maps(phase)
         spec, resampled = self.spec, self._resampled
         if spec.supersample == 1:
@@ -449,19 +475,47 @@ class OmniCamera:
         # panorama looks. The one copy also gives the caller a new array.
         return np.concatenate((resampled[:, shift:], resampled[:, :shift]), axis=1)
 
-    def _read_in_fog(self, data: mujoco.MjData, visibility_m: float) -> None:
-        """Read the views' colours and depths and blend each pixel towards the airlight by its
-        distance (:func:`~sfa_gym.sim.camera.fog.apply_fog`)."""
-        lay, model = self._layout, self.model
-        if self._depth is None or self._ray_lengths is None:
+    def _read_depth(self) -> None:
+        """Read the views' colours and depths."""
+        lay = self._layout
+        if self._depth is None:
             self._depth = np.empty((lay.buffer_h, lay.buffer_w), dtype=np.float32)
+        mujoco.mjr_readPixels(self._buffer, self._depth, self._full_rect, self._con)
+
+    def _clip_planes(self) -> tuple[float, float]:
+        extent = float(self.model.stat.extent)
+        return self.model.vis.map.znear * extent, self.model.vis.map.zfar * extent
+
+    def _apply_fog(self, data: mujoco.MjData, visibility_m: float) -> None:
+        """Blend each pixel towards the airlight by its distance
+        (:func:`~sfa_gym.sim.camera.fog.apply_fog`)."""
+        lay = self._layout
+        assert self._depth is not None
+        if self._ray_lengths is None:
             rects = [(*lay.origin(i), lay.view_w, lay.view_h) for i in range(lay.n_views)]
             self._ray_lengths = ray_lengths(lay.buffer_w, lay.buffer_h, rects, lay.focal)
-        mujoco.mjr_readPixels(self._buffer, self._depth, self._full_rect, self._con)
-        extent = float(model.stat.extent)
-        znear, zfar = model.vis.map.znear * extent, model.vis.map.zfar * extent
-        air = airlight(model, data)
+        znear, zfar = self._clip_planes()
+        air = airlight(self.model, data)
         apply_fog(self._buffer, self._depth, self._ray_lengths, znear, zfar, visibility_m, air)
+
+    # -- shadows ---------------------------------------------------------------------------------
+
+    def _apply_shadows(
+        self, data: mujoco.MjData, eye: NDArray[np.float64], frames: NDArray[np.float64], sun: Any
+    ) -> None:
+        """Render the views again without the ``sun`` (a scene light) and show that render
+        where the sun's depth map hides the pixel's surface point (:mod:`.shadows`)."""
+        assert self._depth is not None and self._sun_shadows is not None
+        if self._unlit is None:
+            self._unlit = np.empty_like(self._buffer)
+        with without_light(sun):
+            self._render_views(data, eye, frames)
+        mujoco.mjr_readPixels(self._unlit, None, self._full_rect, self._con)
+        shadows = self._sun_shadows
+        where = shadows.light_coordinates(
+            self._depth, self._layout, eye, frames, *self._clip_planes()
+        )
+        np.copyto(self._buffer, self._unlit, where=shadows.shaded(*where)[..., None])
 
     # -- cleanup --------------------------------------------------------------------------------
 

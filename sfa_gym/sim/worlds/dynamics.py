@@ -22,6 +22,8 @@ the same scene.
   ``overcast`` (0 sunny .. 1 overcast) removes most direct light for the whole day.
 * **Fog**: with a ``visibility_m`` (the meteorological visibility), every view sees the scene
   through fog by Koschmieder's law, lit by the same daylight (:mod:`sfa_gym.sim.camera.fog`).
+* **Shadows**: with ``shadows``, the sun casts the static scene's shadows on the ground
+  (:mod:`sfa_gym.sim.camera.shadows`).
 * **Movers**: pedestrians on the pavement, a cyclist and cars on a road past one side, as
   mocap bodies on lanes the scene keeps free (:mod:`sfa_gym.sim.worlds.movers`).
 
@@ -122,6 +124,8 @@ class DynamicsSpec:
         seasons: the trees' foliage by the date (needs a ``day_of_year``): leaf-out in
             spring, autumn colours, bare crowns in winter (:mod:`sfa_gym.sim.worlds.seasons`);
             False: the crowns as drawn, whatever the date.
+        shadows: the sun's cast shadows on the ground (:mod:`sfa_gym.sim.camera.shadows`),
+            moving with the clock and fading under clouds.
         road: the road of the cyclists and cars.
         clock, clouds, movers: switch each effect (the clock off holds the sun where it
             stood when the episode started, while clouds and movers go on; the movers off
@@ -151,6 +155,7 @@ class DynamicsSpec:
     arrangement: int = 0
     rearrange_share: float = 0.5
     seasons: bool = False
+    shadows: bool = False
 
     def __post_init__(self) -> None:
         check_value(
@@ -199,7 +204,7 @@ class DynamicsSpec:
             is_number(self.rearrange_share) and 0.0 <= self.rearrange_share <= 1.0,
             f"rearrange_share must lie in [0, 1], got {self.rearrange_share!r}",
         )
-        for name in ("clock", "clouds", "movers", "seasons"):
+        for name in ("clock", "clouds", "movers", "seasons", "shadows"):
             value = getattr(self, name)
             check_value(isinstance(value, bool), f"{name} must be True or False, got {value!r}")
         check_visibility(self.visibility_m)
@@ -399,8 +404,8 @@ def resolve_dynamics(
         declared: what the world spec declares (None: nothing).
         dynamics: None (what the world declares), False (none), True (the world's, else the
             defaults) or a spec.
-        switches: ``{"clock": ..., "clouds": ..., "movers": ...}``: True/False override the
-            spec's field, None keeps it.
+        switches: ``{"clock": ..., "clouds": ..., "movers": ..., "shadows": ...}``:
+            True/False override the spec's field, None keeps it.
         start_hour: overrides ``start_hour`` when given.
     Raises:
         ValueError: a switch that is not a bool or None, a bad start hour, or a switch turned
