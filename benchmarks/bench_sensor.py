@@ -1,5 +1,6 @@
 """Benchmark: what the optional effects (auto white balance, vignetting, fog, another day's
-parked objects, the seasons' foliage, cast shadows) cost per step.
+parked objects, the seasons' foliage, cast shadows) and the textured worlds (the outdoor world
+and the campus) cost per step.
 
 The registered ``OmniRoverOutdoor-v0`` (mirror camera, dynamics, auto-exposure and noise: the
 reference) against the same env with each effect switched on (fog: the dynamics' visibility,
@@ -70,6 +71,8 @@ def main(args: Args) -> None:
     ):
         changed = dataclasses.replace(envs["OmniRoverOutdoor-v0"].dynamics, **change)
         envs[name] = gym.make("sfa_gym/OmniRoverOutdoor-v0", dynamics=changed).unwrapped
+    for env_id in ("OmniRoverOutdoorTextured-v0", "OmniRoverCampus-v0"):  # textured worlds
+        envs[env_id] = gym.make(f"sfa_gym/{env_id}").unwrapped
     wall, cpu = time_steps(envs, args.steps, args.repeats)
     reference = statistics.median(cpu[next(iter(SENSORS))])
     rows = {

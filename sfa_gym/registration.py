@@ -13,6 +13,7 @@ ENV_IDS = (
     "sfa_gym/OmniRoverOutdoorCam-v0",
     "sfa_gym/OmniRoverOutdoor-v0",
     "sfa_gym/OmniRoverOutdoorTextured-v0",
+    "sfa_gym/OmniRoverCampus-v0",
 )
 """Exploration envs: no task, panorama observations."""
 NAV_ENV_IDS = (
@@ -26,6 +27,8 @@ _ENTRY_POINT = "sfa_gym.sim.env:OmniRoverEnv"
 _NAV_ENTRY_POINT = "sfa_gym.navigation.env:OmniRoverNavEnv"
 # 100 s of driving at the default control period of 0.1 s.
 _MAX_EPISODE_STEPS = 1000
+# The campus square is 20 m x 30 m: 5 min of driving.
+_CAMPUS_STEPS = 3000
 # Navigation: 60 s, 24 m at full speed, three times the arena's diagonal; the maze's detours
 # around the arms get 100 s.
 _NAV_STEPS = 600
@@ -52,6 +55,10 @@ def register_envs() -> None:
     * ``sfa_gym/OmniRoverOutdoorTextured-v0``: the same with generated surface textures
       (``textures=True``: asphalt, grass, paving, brick and plaster facades, bark, foliage;
       :mod:`sfa_gym.sim.worlds.textures`); the same places, poses and everything else.
+    * ``sfa_gym/OmniRoverCampus-v0``: the ``campus`` world (a 20 m x 30 m square split by
+      two building wings into three areas joined by paths; buildings that repeat two
+      designs; :mod:`sfa_gym.sim.worlds.facades`), textured, with the outdoor camera, sensor
+      and dynamics; 3000 steps.
     """
     outdoor = {
         "world": "paper_outdoor",
@@ -81,6 +88,11 @@ def register_envs() -> None:
             _ENTRY_POINT,
             _MAX_EPISODE_STEPS,
             {**outdoor, "textures": True},
+        ),
+        "sfa_gym/OmniRoverCampus-v0": (
+            _ENTRY_POINT,
+            _CAMPUS_STEPS,
+            {**outdoor, "world": "campus", "textures": True},
         ),
     }
     for env_id, (entry_point, steps, kwargs) in specs.items():

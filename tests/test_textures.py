@@ -48,8 +48,12 @@ def _textured(name: str = "paper_outdoor", **settings):
     return dataclasses.replace(load_world_spec(name), textures=TexturesSpec(**settings))
 
 
+AFTER_TEXTURES = {"campus"}
+"""Worlds shipped after the textures came: they have no MJCF of before."""
+
+
 def test_every_shipped_world_builds_the_mjcf_it_built_before_textures():
-    assert sorted(BEFORE) == available_worlds()
+    assert sorted(BEFORE) == sorted(set(available_worlds()) - AFTER_TEXTURES)
     for name, hashes in BEFORE.items():
         spec = load_world_spec(name)
         assert spec.textures is None

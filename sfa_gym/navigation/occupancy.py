@@ -60,7 +60,7 @@ from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
 from sfa_gym._checks import check_finite, check_positive
-from sfa_gym.sim.worlds.build import WorldLayout
+from sfa_gym.sim.worlds.layout import WorldLayout
 
 __all__ = ["GeodesicField", "OccupancyGrid"]
 
@@ -167,7 +167,7 @@ class OccupancyGrid:
         :attr:`sfa_gym.sim.rover.RoverSpec.footprint_radius`) with cells of ``resolution`` (m).
 
         ``layout`` is a :class:`~sfa_gym.sim.worlds.WorldLayout`, or anything with its
-        ``bounds``, ``obstacles`` and optionally ``walls``.
+        ``bounds``, ``obstacles`` and optionally ``walls`` and ``blocks``.
         """
         if not isinstance(layout, WorldLayout):
             layout = WorldLayout(
@@ -175,6 +175,7 @@ class OccupancyGrid:
                 obstacles=tuple(tuple(o) for o in layout.obstacles),
                 landmarks=(),
                 walls=tuple(tuple(w) for w in getattr(layout, "walls", ())),
+                blocks=tuple(tuple(k) for k in getattr(layout, "blocks", ())),
             )
         resolution = check_positive("resolution", resolution)
         rover_radius = check_finite("rover_radius", rover_radius, low=0.0)

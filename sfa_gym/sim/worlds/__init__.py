@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from sfa_gym.sim.worlds.build import MJCFParts, World, WorldLayout, build_world
+from sfa_gym.sim.worlds.build import MJCFParts, World, build_world
+from sfa_gym.sim.worlds.layout import WorldLayout
 from sfa_gym.sim.worlds.spec import (
     BuildingsSpec,
     InteriorWallsSpec,

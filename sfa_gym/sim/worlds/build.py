@@ -9,13 +9,14 @@ from dataclasses import dataclass, field
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
 
 from sfa_gym._checks import check_world_seed
 from sfa_gym.sim.worlds._mjcf import Builder as _Builder
 from sfa_gym.sim.worlds._mjcf import num as _num
 from sfa_gym.sim.worlds._mjcf import vec as _vec
 from sfa_gym.sim.worlds.dynamics import DynamicsSpec, Lanes, mover_lanes, movers_mjcf
+from sfa_gym.sim.worlds.facades import designs_for
+from sfa_gym.sim.worlds.layout import WorldLayout
 from sfa_gym.sim.worlds.outdoor import build_outdoor, outer_reach
 from sfa_gym.sim.worlds.rearrange import rearranged_for
 from sfa_gym.sim.worlds.seasons import foliage_for
@@ -32,71 +33,6 @@ class MJCFParts:
     actuators: str = ""
     sensors: str = ""
     contacts: str = ""
-
-
-@dataclass(frozen=True)
-class WorldLayout:
-    """Where things are in one generated world (metres, world frame).
-
-    Attributes:
-        bounds: drivable area ``(xmin, xmax, ymin, ymax)``.
-        obstacles: ``(x, y, radius)`` of each obstacle's bounding circle inside the arena.
-        landmarks: ``(kind, x, y, height)`` of each landmark outside the walls.
-        walls: ``(x0, y0, x1, y1, half_thickness)`` of each interior wall: its centre line and
-            half its thickness. The set of points within ``half_thickness`` of the centre line
-            (a capsule) contains the wall's box.
-    """
-
-    bounds: tuple[float, float, float, float]
-    obstacles: tuple[tuple[float, float, float], ...]
-    landmarks: tuple[tuple[str, float, float, float], ...]
-    walls: tuple[tuple[float, float, float, float, float], ...] = ()
-
-    def __post_init__(self) -> None:
-        for i, wall in enumerate(self.walls):
-            if len(wall) != 5 or not all(math.isfinite(v) for v in wall):
-                raise ValueError(
-                    f"layout walls[{i}] must be 5 finite numbers (x0, y0, x1, y1, "
-                    f"half_thickness), got {wall!r}"
-                )
-            if not wall[4] > 0:
-                raise ValueError(f"layout walls[{i}] half_thickness must be positive, got {wall!r}")
-        for i, obstacle in enumerate(self.obstacles):
-            if len(obstacle) != 3 or not obstacle[2] >= 0:
-                raise ValueError(
-                    f"layout obstacles[{i}] must be (x, y, radius) with radius >= 0, "
-                    f"got {obstacle!r}"
-                )
-
-    def clearance(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Distance (m) from each point to the nearest obstacle or interior wall surface.
-
-        Obstacles count as their bounding circles, walls as capsules around their centre lines
-        (see :attr:`walls`); negative inside one. The arena's bounds do not count.
-
-        Args:
-            points: ``(n, 2)`` positions ``(x, y)`` in metres, world frame.
-
-        Returns:
-            ``(n,)`` distances; ``inf`` where the world has no obstacles and no walls.
-        """
-        p = np.asarray(points, dtype=np.float64)
-        if p.ndim != 2 or p.shape[1] != 2:
-            raise ValueError(f"points must have shape (n, 2), got {p.shape}")
-        out = np.full(len(p), np.inf)
-        if self.obstacles:
-            c = np.asarray(self.obstacles, dtype=np.float64)
-            d = np.hypot(p[:, None, 0] - c[:, 0], p[:, None, 1] - c[:, 1]) - c[:, 2]
-            out = np.minimum(out, d.min(axis=1))
-        if self.walls:
-            w = np.asarray(self.walls, dtype=np.float64)
-            a, ab = w[:, 0:2], w[:, 2:4] - w[:, 0:2]
-            ap = p[:, None, :] - a  # (n, k, 2)
-            length2 = np.maximum((ab**2).sum(axis=1), 1e-300)
-            t = np.clip((ap * ab).sum(axis=2) / length2, 0.0, 1.0)
-            d = np.linalg.norm(ap - t[..., None] * ab, axis=2) - w[:, 4]
-            out = np.minimum(out, d.min(axis=1))
-        return out
 
 
 @dataclass(frozen=True)
@@ -481,7 +417,9 @@ def build_world(
     lanes = None if spec.dynamics is None else mover_lanes(spec.dynamics, arena.size, seed)
     if spec.outdoor is not None:
         day = spec.dynamics if dynamics is None else dynamics  # its parked objects and trees
-        landmarks += build_outdoor(b, lanes, rearranged_for(day, seed), foliage_for(day, seed))
+        facades = designs_for(spec.outdoor.buildings, seed)
+        changes = rearranged_for(day, seed), foliage_for(day, seed), facades
+        landmarks += build_outdoor(b, lanes, *changes)
     if spec.dynamics is not None and lanes is not None and spec.dynamics.n_movers:
         # the movers draw from their own generator: the world around them stays the same
         mover_assets, mover_bodies = movers_mjcf(spec.dynamics, lanes, seed)
@@ -545,6 +483,7 @@ def build_world(
         obstacles=tuple(obstacles),
         landmarks=tuple(landmarks),
         walls=_walls(spec),
+        blocks=() if spec.outdoor is None else spec.outdoor.blocks,
     )
     assets = {} if b.textures is None else dict(b.textures.files)
     return World(mjcf=mjcf, layout=layout, lanes=lanes, assets=assets)

@@ -18,8 +18,7 @@ the movers' heads. Everything is axis aligned and placed so that footprints do n
 (rectangles kept ``_GAP`` apart); all of it is visual only (``contype="0"``): the rover cannot
 reach it past the curbs, and visual-only geoms cost nothing in collision detection.
 
-Window grids are MuJoCo builtin textures (``builtin="flat"`` with ``mark="edge"``: glass
-coloured tiles framed by facade-coloured edges) repeated once per window pitch and storey.
+Facades and their window grids: :mod:`sfa_gym.sim.worlds.facades`.
 """
 
 from __future__ import annotations
@@ -32,6 +31,7 @@ from typing import TYPE_CHECKING, Protocol
 from sfa_gym.sim.worlds._mjcf import Builder as _Builder
 from sfa_gym.sim.worlds._mjcf import vec as _vec
 from sfa_gym.sim.worlds.dynamics import FOOTPRINT, Lanes
+from sfa_gym.sim.worlds.facades import Designs, window_material
 from sfa_gym.sim.worlds.spec import ColourRange, ItemsSpec, OutdoorSpec
 
 if TYPE_CHECKING:
@@ -140,6 +140,7 @@ class Scene:
         # another day's parked objects (sfa_gym.sim.worlds.rearrange); None: as built
         self.rearranged: DayChanges | None = None
         self.foliage: Foliage | None = None  # the trees' crowns by the date; None: as drawn
+        self.facades: Designs | None = None  # repeated designs; None: every building anew
 
     def free(self, rect: Rect) -> bool:
         return not any(_overlaps(rect, t) for t in self.taken)
@@ -175,35 +176,9 @@ def _pavement(s: Scene) -> None:
     )
 
 
-def _window_material(
-    s: Scene,
-    facade: tuple[float, float, float],
-    glass: tuple[float, float, float],
-    columns: int,
-    storeys: int,
-) -> str:
-    """A facade with ``columns`` x ``storeys`` windows on every face of a box."""
-    b = s.b
-    name = f"mat{b.n_materials}"
-    b.n_materials += 1
-    # An 8-texel tile whose edge texels take the facade colour: one window per tile, framed.
-    # The repeat counts windows per face (texuniform="false"): MuJoCo's uniform mapping
-    # stretches the tiles over some faces of a box.
-    b.assets.append(
-        f'<texture name="tex_{name}" type="2d" builtin="flat" rgb1="{_vec(*glass)}" '
-        f'rgb2="{_vec(*glass)}" mark="edge" markrgb="{_vec(*facade)}" width="8" height="8"/>'
-    )
-    b.assets.append(
-        f'<material name="{name}" texture="tex_{name}" texrepeat="{columns} {storeys}" '
-        f'texuniform="false" specular="0" shininess="0"/>'
-    )
-    bay = (s.spec.buildings.window_pitch, s.spec.buildings.storey_height)
-    bays = (columns, storeys)  # one texture per face: every window its own
-    return b.textured("facade", name, rgb=facade, glass=glass, bays=bays, bay_m=bay, repeat=(1, 1))
-
-
 def _buildings(s: Scene, car_side: Side, car_band: float, lanes: Lanes | None) -> None:
     spec, rng = s.spec.buildings, s.rng
+    lo, hi = spec.storeys
     n = int(rng.integers(spec.sides[0], spec.sides[1] + 1))
     order = rng.permutation(len(s.sides))
     for side in (s.sides[i] for i in sorted(order[:n])):
@@ -211,23 +186,29 @@ def _buildings(s: Scene, car_side: Side, car_band: float, lanes: Lanes | None) -
         reach = side.half + s.spec.pavement_width + spec.distance[1]
         along = -reach
         while along < reach:
-            length = rng.uniform(*spec.length)
-            depth = rng.uniform(*spec.depth)
+            # a design repeats its footprint, storeys and facade; else all are drawn anew
+            design = None if s.facades is None else s.facades.draw(s.b)
+            length = design.length if design else rng.uniform(*spec.length)
+            depth = design.depth if design else rng.uniform(*spec.depth)
             distance = rng.uniform(*spec.distance)
             if side is car_side:
                 distance = max(distance, car_band)
             if lanes is not None and side.name == lanes.road_side:
                 distance = max(distance, lanes.road[1] + _GAP)  # across the road
-            storeys = int(rng.integers(spec.storeys[0], spec.storeys[1] + 1))
+            storeys = design.storeys if design else int(rng.integers(lo, hi + 1))
             out = side.edge + distance + depth / 2
             rect = side.rect(out, along + length / 2, depth, length)
             along += length + rng.uniform(0.5, 4.0)
-            facade, glass = spec.colours.draw(rng), spec.windows.draw(rng)
+            colours = None if design else (spec.colours.draw(rng), spec.windows.draw(rng))
             if not s.free(rect):
                 continue  # a corner already built up by the neighbouring row
             s.taken.append(rect)
             columns = max(1, round(length / spec.window_pitch))
-            mat = _window_material(s, facade, glass, columns, storeys)
+            mat = (
+                design.material
+                if design
+                else window_material(s.b, spec, *colours, columns, storeys)
+            )
             height = storeys * spec.storey_height
             cx, cy = (rect[0] + rect[1]) / 2, (rect[2] + rect[3]) / 2
             s.geoms.append(box_geom(s.name("building"), rect, 0.0, height, mat))
@@ -491,12 +472,15 @@ def build_outdoor(
     lanes: Lanes | None = None,
     rearranged: DayChanges | None = None,
     foliage: Foliage | None = None,
+    facades: Designs | None = None,
 ) -> list[Landmark]:
     """Draw the surroundings of ``b.spec.outdoor`` with ``b.rng`` into ``b``'s assets and body,
     keeping the movers' ``lanes`` (from :func:`~sfa_gym.sim.worlds.dynamics.mover_lanes`,
     None: no movers) free; ``rearranged``: another day's parked objects
     (:mod:`sfa_gym.sim.worlds.rearrange`), None: the world as built; ``foliage``: the trees'
-    crowns by the date (:mod:`sfa_gym.sim.worlds.seasons`), None: as drawn.
+    crowns by the date (:mod:`sfa_gym.sim.worlds.seasons`), None: as drawn; ``facades``:
+    repeated building designs and the blocks inside the arena
+    (:mod:`sfa_gym.sim.worlds.facades`), None: every building drawn anew.
 
     The order of the draws is fixed (pavement, car side, buildings, cars, fences, lamp posts,
     tree clusters, bushes), so the same world seed gives the same surroundings. Another day's
@@ -515,7 +499,7 @@ def build_outdoor(
     if spec is None:
         raise ValueError(f"world {b.spec.name!r} has no outdoor block")
     s = Scene(b, spec)
-    s.rearranged, s.foliage = rearranged, foliage
+    s.rearranged, s.foliage, s.facades = rearranged, foliage, facades
     if lanes is not None:
         _check_lanes(s, lanes)
     _pavement(s)
@@ -529,6 +513,10 @@ def build_outdoor(
     car_side = sides[int(s.rng.integers(len(sides)))]
     car_band = spec.pavement_width + 1.5 + 2 * (spec.cars.width[1] if spec.cars.count else 0.0)
     _buildings(s, car_side, car_band, lanes)
+    if facades is not None:
+        geoms, blocks = facades.blocks(s.b, spec.blocks)
+        s.geoms += geoms
+        s.landmarks += blocks
     _cars(s, car_side)
     _fences(s, car_side)
     _lamp_posts(s)

@@ -380,6 +380,10 @@ class BuildingsSpec:
         window_pitch: horizontal distance between windows (m).
         colours: range of facade colours.
         windows: range of window (glass) colours.
+        designs: 0: every building drawn anew; ``n`` >= 1: the world draws ``n`` designs
+            (length, depth, storeys, facade and window colours, the facade's texture) and
+            every building, and every block inside the arena, repeats one of them: the
+            repeated facades of a campus, where places look alike.
     """
 
     sides: tuple[int, int] = (2, 3)
@@ -391,9 +395,12 @@ class BuildingsSpec:
     window_pitch: float = 2.5
     colours: ColourRange = ColourRange((0.0, 0.15), (0.1, 0.5), (0.5, 0.9))
     windows: ColourRange = ColourRange((0.55, 0.65), (0.2, 0.5), (0.15, 0.35))
+    designs: int = 0
 
     def __post_init__(self) -> None:
         _check_range(self.sides, "buildings sides", low=0)
+        if isinstance(self.designs, bool) or not isinstance(self.designs, int) or self.designs < 0:
+            raise ValueError(f"buildings designs must be an integer >= 0, got {self.designs!r}")
         if self.sides[1] > 4:
             raise ValueError(f"buildings sides must lie in [0, 4], got {list(self.sides)}")
         _check_range(self.storeys, "buildings storeys", low=1)
@@ -420,6 +427,10 @@ class OutdoorSpec:
         fences: fence runs (posts and two rails).
         lamp_posts: lamp posts along the pavement.
         bushes: bushes along the pavement.
+        blocks: building blocks standing inside the arena, ``(xmin, xmax, ymin, ymax)`` (m,
+            world frame): buildings of the ``buildings``' designs that the rover collides with
+            (a campus's wings between its drivable areas). The only things of this block that
+            stand inside the arena.
     """
 
     pavement: SurfaceSpec = SurfaceSpec()
@@ -431,9 +442,20 @@ class OutdoorSpec:
     fences: ItemsSpec = ItemsSpec()
     lamp_posts: ItemsSpec = ItemsSpec()
     bushes: ItemsSpec = ItemsSpec()
+    blocks: tuple[tuple[float, float, float, float], ...] = ()
 
     def __post_init__(self) -> None:
         _check_positive(self.pavement_width, "outdoor pavement_width")
+        if self.blocks and not self.buildings.designs:
+            raise ValueError(
+                "outdoor blocks look like the buildings' designs: set buildings.designs >= 1"
+            )
+        for i, (x0, x1, y0, y1) in enumerate(self.blocks):
+            if not (x0 < x1 and y0 < y1):
+                raise ValueError(
+                    f"outdoor blocks[{i}] must be (xmin, xmax, ymin, ymax) with xmin < xmax and "
+                    f"ymin < ymax, got {[x0, x1, y0, y1]}"
+                )
         if self.tree_clusters < 1:
             raise ValueError(f"outdoor tree_clusters must be >= 1, got {self.tree_clusters}")
 
@@ -480,6 +502,12 @@ class WorldSpec:
                 raise ValueError(
                     f"interior_walls segments[{i}] {[x0, y0, x1, y1]} reaches outside the "
                     f"arena: its ends must satisfy |x| <= {hx} and |y| <= {hy}"
+                )
+        for i, block in enumerate(() if self.outdoor is None else self.outdoor.blocks):
+            if max(abs(v) for v in block[:2]) > hx + 1e-9 or max(abs(v) for v in block[2:]) > hy:
+                raise ValueError(
+                    f"outdoor blocks[{i}] {list(block)} reaches outside the arena: it must "
+                    f"satisfy |x| <= {hx} and |y| <= {hy}"
                 )
 
 
