@@ -93,3 +93,29 @@ def test_bad_blocks_and_designs_are_named():
     far = dataclasses.replace(outdoor, blocks=((0.0, 1.0, 14.0, 16.0),))
     with pytest.raises(ValueError, match="reaches outside the arena"):
         dataclasses.replace(CAMPUS, outdoor=far)
+
+
+def test_the_grid_protocol_keeps_to_the_cells_where_the_rover_fits(tmp_path):
+    from sfa_gym.protocols import grid
+    from sfa_gym.recording.cache import RunCache
+
+    config = grid.Config(
+        env_id="sfa_gym/OmniRoverCampus-v0",
+        panorama=(20, 200),
+        grid=9,
+        free_cells=True,
+        n_train=12,
+        n_test=6,
+    )
+    config.validate()
+    data = grid.load(config, 0, RunCache(tmp_path, progress=False))
+    env = gym.make("sfa_gym/OmniRoverCampus-v0", disable_env_checker=True)
+    try:
+        assert np.all(env.unwrapped.rover_fits(data.positions))
+    finally:
+        env.close()
+    assert len(data.positions) < config.grid**2  # the wings' cells are left out
+    assert len(set(data.train) | set(data.test)) == config.n_train + config.n_test
+    crowded = dataclasses.replace(config, n_train=len(data.positions), n_test=6)
+    with pytest.raises(ValueError, match="only .* where the rover fits"):
+        grid.select_positions(crowded, len(data.positions))

@@ -76,11 +76,17 @@ class Config(RenderSettings):
     """few_labels: the numbers of labelled training positions the regression sees"""
     seed: int = 0
     """seed of the headings, the train/test selection and the splits"""
+    free_cells: bool = False
+    """leave out the grid's cells where the rover does not fit (worlds with obstacles, walls or
+    building blocks, such as the campus); the training and test positions are drawn from the
+    others"""
 
     def validate(self) -> None:
         """Raise ValueError (or TypeError) naming the first bad setting."""
         self.validate_rendering()
         check_int("seed", self.seed)
+        if not isinstance(self.free_cells, bool):
+            raise TypeError(f"free_cells must be True or False, got {self.free_cells!r}")
         for name in ("grid", "n_train", "n_test", "n_splits"):
             check_positive_int(name, getattr(self, name))
         check_choice("order", self.order, GridOrder)
@@ -112,11 +118,19 @@ class Config(RenderSettings):
                 )
 
 
-def requests(config: Config, world_seed: int) -> dict[str, RunRequest]:
-    """The one run of the protocol: ``{"grid": request}``, every grid position."""
+def _positions(config: Config) -> Any:
+    """The grid's poses: every cell's, or with ``free_cells`` those where the rover fits."""
     from sfa_gym.recording.drivers import GridPositions
+    from sfa_gym.recording.poses import FreeGridPositions
 
-    driver = GridPositions(n=config.grid, seed=config.seed, order=config.order)
+    kind = FreeGridPositions if config.free_cells else GridPositions
+    return kind(n=config.grid, seed=config.seed, order=config.order)
+
+
+def requests(config: Config, world_seed: int) -> dict[str, RunRequest]:
+    """The one run of the protocol: ``{"grid": request}``, every grid position (with
+    ``free_cells``: every one where the rover fits)."""
+    driver = _positions(config)
     request = RunRequest(
         world=config.world,
         world_seed=world_seed,
@@ -132,7 +146,16 @@ def select_positions(config: Config, n_positions: int) -> tuple[NDArray, NDArray
     """Indices (into the visiting order) of the training and test positions.
 
     Training positions keep the visiting order, so their sequence follows the curve.
+
+    Raises:
+        ValueError: fewer than ``n_train + n_test`` positions (the free cells of a world with
+            obstacles or blocks).
     """
+    if config.n_train + config.n_test > n_positions:
+        raise ValueError(
+            f"n_train + n_test = {config.n_train + config.n_test} positions, but the grid has "
+            f"only {n_positions} where the rover fits: lower them or raise grid"
+        )
     rng = np.random.default_rng(config.seed)
     chosen = rng.permutation(n_positions)
     train = np.sort(chosen[: config.n_train])
@@ -154,10 +177,8 @@ def training_panoramas(env: Any, config: Config, progress: bool = True) -> NDArr
     """
     from tqdm.auto import tqdm
 
-    from sfa_gym.recording.drivers import GridPositions
-
     config.validate()
-    poses = GridPositions(n=config.grid, seed=config.seed, order=config.order).poses(env)
+    poses = _positions(config).poses(env)
     train, _ = select_positions(config, len(poses))
     return np.stack(
         [
