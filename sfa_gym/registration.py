@@ -20,6 +20,7 @@ NAV_ENV_IDS = (
     "sfa_gym/OmniRoverNav-v0",
     "sfa_gym/OmniRoverNavObstacles-v0",
     "sfa_gym/OmniRoverNavMaze-v0",
+    "sfa_gym/OmniRoverNavCampus-v0",
 )
 """Image-goal navigation envs."""
 
@@ -48,6 +49,9 @@ def register_envs() -> None:
       (``paper_sim_obstacles``), 600 steps.
     * ``sfa_gym/OmniRoverNavMaze-v0``: the same with a plus-shaped wall through the arena
       (``paper_sim_maze``): straight lines between quadrants are blocked; 1000 steps.
+    * ``sfa_gym/OmniRoverNavCampus-v0``: image-goal navigation on the campus (the world, camera,
+      dynamics and textures of ``sfa_gym/OmniRoverCampus-v0``): the way between its areas
+      turns round the wings; 3000 steps.
     * ``sfa_gym/OmniRoverOutdoor-v0``: the ``paper_outdoor`` world through the mirror camera
       (60 x 600 unwarped panoramas), with its dynamics (sun over the day, clouds, movers) and
       the camera's auto-exposure and noise, on the sprung mast of ``RoverSpec.outdoor()`` (the
@@ -69,6 +73,7 @@ def register_envs() -> None:
         "sensor": True,
         "rover": "outdoor",
     }
+    campus = {**outdoor, "world": "campus", "textures": True}
     specs = {
         "sfa_gym/OmniRover-v0": (_ENTRY_POINT, _MAX_EPISODE_STEPS, {"world": "paper_sim"}),
         "sfa_gym/OmniRoverOutdoorCam-v0": (
@@ -89,11 +94,8 @@ def register_envs() -> None:
             _MAX_EPISODE_STEPS,
             {**outdoor, "textures": True},
         ),
-        "sfa_gym/OmniRoverCampus-v0": (
-            _ENTRY_POINT,
-            _CAMPUS_STEPS,
-            {**outdoor, "world": "campus", "textures": True},
-        ),
+        "sfa_gym/OmniRoverCampus-v0": (_ENTRY_POINT, _CAMPUS_STEPS, campus),
+        "sfa_gym/OmniRoverNavCampus-v0": (_NAV_ENTRY_POINT, _CAMPUS_STEPS, dict(campus)),
     }
     for env_id, (entry_point, steps, kwargs) in specs.items():
         if env_id in gym.registry:

@@ -119,3 +119,17 @@ def test_the_grid_protocol_keeps_to_the_cells_where_the_rover_fits(tmp_path):
     crowded = dataclasses.replace(config, n_train=len(data.positions), n_test=6)
     with pytest.raises(ValueError, match="only .* where the rover fits"):
         grid.select_positions(crowded, len(data.positions))
+
+
+def test_the_way_between_the_plazas_turns_round_both_wings():
+    env = gym.make("sfa_gym/OmniRoverNavCampus-v0", sensor=False, dynamics=False)
+    try:
+        obs, info = env.reset(seed=0, options={"start": (0, -10, 0), "goal": (0, 10, 0)})
+        assert obs["panorama"].shape == obs["goal"].shape == (60, 600, 3)  # the mirror camera
+        # 20 m apart in a straight line; the paths lie at the wings' alternating ends
+        assert info["shortest_path"] > 1.8 * 20.0
+        # the way from the south plaza to the middle court passes one wing: shorter
+        _, info = env.reset(seed=0, options={"start": (0, -10, 0), "goal": (0, 0, 0)})
+        assert 10.0 * 1.2 < info["shortest_path"] < 40.0
+    finally:
+        env.close()

@@ -118,7 +118,8 @@ class OmniRoverNavEnv(OmniRoverEnv):
 
     ## Arguments
 
-    Those of :class:`~sfa_gym.sim.env.OmniRoverEnv`, and:
+    Those of :class:`~sfa_gym.sim.env.OmniRoverEnv` (the camera, dynamics, sensor and textures
+    by keyword), and:
 
     * ``success_radius`` (0.3): metres from the goal position that count as arrived. The rover
       is 0.5 m long and wide; at 0.3 m its footprint overlaps the goal footprint by more than
@@ -148,7 +149,7 @@ class OmniRoverNavEnv(OmniRoverEnv):
         v_max: float = 0.4,
         w_max: float = 1.0,
         control_dt: float = 0.1,
-        rover: RoverSpec | None = None,
+        rover: RoverSpec | str | None = None,
         render_mode: str | None = None,
         render_size: int = 256,
         success_radius: float = 0.3,
@@ -161,9 +162,20 @@ class OmniRoverNavEnv(OmniRoverEnv):
         range_fov_deg: float = 180.0,
         range_max: float = 2.0,
         grid_resolution: float = 0.05,
+        **scene: Any,
     ) -> None:
+        # the camera, dynamics, sensor and textures of OmniRoverEnv (camera="mirror", ...)
         super().__init__(
-            world, world_seed, panorama, v_max, w_max, control_dt, rover, render_mode, render_size
+            world,
+            world_seed,
+            panorama,
+            v_max,
+            w_max,
+            control_dt,
+            rover,
+            render_mode,
+            render_size,
+            **scene,
         )
         self.success_radius = check_positive("success_radius", success_radius)
         if not isinstance(stop_action, bool):
