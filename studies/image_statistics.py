@@ -4,9 +4,10 @@ of their panoramas (:mod:`sfa_gym.image_statistics`).
 For each world and camera, ``--panoramas`` panoramas at seeded random poses (``env.reset(seed=
 i)``, world seed 0); their grey levels' radially averaged amplitude spectrum is fitted by
 ``1/f^alpha`` (natural scenes: about 1.0; issue 35 asks for 0.9-1.2) and the RMS contrast of
-their 8 x 8 patches is summarised by percentiles. The outdoor world is measured flat and with
-its generated textures (``sfa_gym/OmniRoverOutdoorTextured-v0``). Two photographs measured the
-same way calibrate the yardstick at this size: scikit-learn's sample images (a temple among
+their 8 x 8 patches is summarised by percentiles. The outdoor world is measured flat, with its
+generated textures (``sfa_gym/OmniRoverOutdoorTextured-v0``) and textured with the sun's cast
+shadows; the campus through its mirror camera. Two photographs measured the same way calibrate
+the yardstick at this size: scikit-learn's sample images (a temple among
 trees, and a flower before a blurred background), cut into overlapping strips of the
 panoramas' 1:10 aspect and shrunk to 60 x 600. Writes ``published/studies/
 image_statistics.json`` and ``docs/image_statistics.png`` (the spectra, log-log, beside the
@@ -46,6 +47,15 @@ VIEWS: dict[str, tuple[str, dict[str, Any]]] = {
         {"camera": "cylindrical", "mirror": None, "sensor": False},
     ),
     "paper_outdoor textured, mirror 60 x 600": ("sfa_gym/OmniRoverOutdoorTextured-v0", {}),
+    "paper_outdoor textured, cast shadows, cylindrical 60 x 600": (
+        "sfa_gym/OmniRoverOutdoorTextured-v0",
+        {"camera": "cylindrical", "mirror": None, "sensor": False, "shadows": True},
+    ),
+    "paper_outdoor textured, cast shadows, mirror 60 x 600": (
+        "sfa_gym/OmniRoverOutdoorTextured-v0",
+        {"shadows": True},
+    ),
+    "campus, mirror 60 x 600": ("sfa_gym/OmniRoverCampus-v0", {}),
 }
 """The worlds and cameras measured: an env id and its kwargs."""
 
