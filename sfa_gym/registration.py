@@ -50,8 +50,8 @@ def register_envs() -> None:
     * ``sfa_gym/OmniRoverNavMaze-v0``: the same with a plus-shaped wall through the arena
       (``paper_sim_maze``): straight lines between quadrants are blocked; 1000 steps.
     * ``sfa_gym/OmniRoverNavCampus-v0``: image-goal navigation on the campus (the world, camera,
-      dynamics and textures of ``sfa_gym/OmniRoverCampus-v0``): the way between its areas
-      turns round the wings; 3000 steps.
+      dynamics and textures of ``sfa_gym/OmniRoverCampus-v0``, panoramas of 350 x 40 like the
+      other navigation envs'): the way between its areas turns round the wings; 3000 steps.
     * ``sfa_gym/OmniRoverOutdoor-v0``: the ``paper_outdoor`` world through the mirror camera
       (60 x 600 unwarped panoramas), with its dynamics (sun over the day, clouds, movers) and
       the camera's auto-exposure and noise, on the sprung mast of ``RoverSpec.outdoor()`` (the
@@ -74,6 +74,9 @@ def register_envs() -> None:
         "rover": "outdoor",
     }
     campus = {**outdoor, "world": "campus", "textures": True}
+    # navigation at the navigation envs' 350 x 40 (the mirror unwarps to it): the methods fit
+    # on every rotation of the training run, which at 600 x 60 would not fit in memory
+    nav_campus = {**campus, "panorama": "paper_sim"}
     specs = {
         "sfa_gym/OmniRover-v0": (_ENTRY_POINT, _MAX_EPISODE_STEPS, {"world": "paper_sim"}),
         "sfa_gym/OmniRoverOutdoorCam-v0": (
@@ -95,7 +98,7 @@ def register_envs() -> None:
             {**outdoor, "textures": True},
         ),
         "sfa_gym/OmniRoverCampus-v0": (_ENTRY_POINT, _CAMPUS_STEPS, campus),
-        "sfa_gym/OmniRoverNavCampus-v0": (_NAV_ENTRY_POINT, _CAMPUS_STEPS, dict(campus)),
+        "sfa_gym/OmniRoverNavCampus-v0": (_NAV_ENTRY_POINT, _CAMPUS_STEPS, nav_campus),
     }
     for env_id, (entry_point, steps, kwargs) in specs.items():
         if env_id in gym.registry:

@@ -125,7 +125,7 @@ def test_the_way_between_the_plazas_turns_round_both_wings():
     env = gym.make("sfa_gym/OmniRoverNavCampus-v0", sensor=False, dynamics=False)
     try:
         obs, info = env.reset(seed=0, options={"start": (0, -10, 0), "goal": (0, 10, 0)})
-        assert obs["panorama"].shape == obs["goal"].shape == (60, 600, 3)  # the mirror camera
+        assert obs["panorama"].shape == obs["goal"].shape == (40, 350, 3)  # mirror, unwarped
         # 20 m apart in a straight line; the paths lie at the wings' alternating ends
         assert info["shortest_path"] > 1.8 * 20.0
         # the way from the south plaza to the middle court passes one wing: shorter
