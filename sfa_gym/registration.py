@@ -24,6 +24,17 @@ NAV_ENV_IDS = (
 )
 """Image-goal navigation envs."""
 
+SCENE_ENV_IDS = {"sfa_gym/OmniRoverNavCampus-v0": "sfa_gym/OmniRoverCampus-v0"}
+"""For a navigation env whose camera is not the plain cylinder of ``sfa_gym/OmniRover-v0``, the
+exploration env that renders what it sees (its world given apart): the navigation protocol
+records the training grid and the feature field's nodes with it."""
+
+
+def scene_env_id(nav_env_id: str | None) -> str:
+    """The exploration env that renders the panoramas of navigation env ``nav_env_id``."""
+    return SCENE_ENV_IDS.get(nav_env_id or "", "sfa_gym/OmniRover-v0")
+
+
 _ENTRY_POINT = "sfa_gym.sim.env:OmniRoverEnv"
 _NAV_ENTRY_POINT = "sfa_gym.navigation.env:OmniRoverNavEnv"
 # 100 s of driving at the default control period of 0.1 s.

@@ -133,3 +133,20 @@ def test_the_way_between_the_plazas_turns_round_both_wings():
         assert 10.0 * 1.2 < info["shortest_path"] < 40.0
     finally:
         env.close()
+
+
+def test_the_navigation_protocol_renders_with_the_campus_camera():
+    from sfa_gym.protocols.navigation import _request
+    from sfa_gym.recording.poses import FieldNodes
+
+    for nav_id, scene_id in (
+        ("sfa_gym/OmniRoverNavCampus-v0", "sfa_gym/OmniRoverCampus-v0"),
+        ("sfa_gym/OmniRoverNav-v0", "sfa_gym/OmniRover-v0"),
+    ):
+        env = gym.make(nav_id, disable_env_checker=True)
+        try:
+            request = _request(env.unwrapped, FieldNodes(0.5), 0)
+            assert request.env_id == scene_id
+            assert request.panorama == env.observation_space["panorama"].shape[:2]
+        finally:
+            env.close()

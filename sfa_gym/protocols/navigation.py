@@ -159,14 +159,23 @@ def _check_navigation_env(name: str, env_id: Any) -> None:
 
 
 def _request(nav: Any, driver: Any, seed: int) -> Any:
+    """The run of ``driver``'s poses in the world of ``nav``, seen by its camera (the exploration
+    env of :func:`~sfa_gym.registration.scene_env_id`)."""
     from sfa_gym.recording.cache import RunRequest
+    from sfa_gym.registration import scene_env_id
 
+    mirror = getattr(nav, "mirror", None)  # a mirror camera's panorama is its unwarped image
+    if mirror is not None:
+        height, width = mirror.panorama_height, mirror.panorama_width
+    else:
+        height, width = nav.panorama.height, nav.panorama.width
     return RunRequest(
         world=nav.world_spec.name,
         world_seed=nav.world_seed,
-        panorama=(nav.panorama.height, nav.panorama.width),
+        panorama=(height, width),
         driver=driver,
         seed=seed,
+        env_id=scene_env_id(getattr(getattr(nav, "spec", None), "id", None)),
     )
 
 
