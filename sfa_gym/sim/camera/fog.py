@@ -27,7 +27,14 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:  # imported where used: MUJOCO_GL must be set before mujoco is imported
     import mujoco
 
-__all__ = ["CONTRAST_THRESHOLD", "airlight", "apply_fog", "check_visibility", "ray_lengths"]
+__all__ = [
+    "CONTRAST_THRESHOLD",
+    "airlight",
+    "apply_fog",
+    "check_visibility",
+    "eye_depths",
+    "ray_lengths",
+]
 
 CONTRAST_THRESHOLD = 0.02
 """The contrast at the meteorological visibility (WMO: 2 % for the visual range)."""
@@ -96,6 +103,12 @@ def airlight(model: mujoco.MjModel, data: mujoco.MjData) -> NDArray[np.float64]:
     return 255.0 * np.minimum(light, 1.0)
 
 
+def eye_depths(depth: NDArray[np.float32], znear: float, zfar: float) -> NDArray[np.float32]:
+    """The eye depth (m) of each value of a depth buffer (window depth in ``[0, 1]``) of a
+    perspective projection from ``znear`` to ``zfar`` (m)."""
+    return (znear * zfar) / (zfar - depth * (zfar - znear))
+
+
 def apply_fog(
     buffer: NDArray[np.uint8],
     depth: NDArray[np.float32],
@@ -118,7 +131,7 @@ def apply_fog(
         visibility_m: the meteorological visibility.
         air: the airlight, RGB 0..255.
     """
-    eye_depth = (znear * zfar) / (zfar - depth * (zfar - znear))
+    eye_depth = eye_depths(depth, znear, zfar)
     transmission = np.exp(-extinction(visibility_m) * eye_depth * lengths)[..., None]
     blended = buffer * transmission + air.astype(np.float32) * (1.0 - transmission)
     np.rint(blended, out=blended)

@@ -13,8 +13,8 @@ itself, with the rasteriser for the geometry and numpy for the test:
    behind the depth map's surface, seen from the sun, shows the second render: the same
    surface lit by the sky and the fill lights only. Both renders use MuJoCo's lighting, so a
    shaded surface is exactly that surface without the sun (faces turned from the sun do not
-   change), on walls, cars and the ground alike. Four neighbouring texels of the map are
-   compared and their results interpolated, for edges as soft as a texel.
+   change), on walls, cars and the ground alike. The map's depth is interpolated between its
+   texels; the panorama's resampling softens the shadows' edges.
 
 Every part is a pure function of the scene and the sun, so shadows keep the camera
 deterministic. Under an overcast sky or at night the sun has no light to take away and the
@@ -37,6 +37,8 @@ from typing import TYPE_CHECKING, Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from sfa_gym.sim.camera.fog import eye_depths
 
 if TYPE_CHECKING:  # imported where used: MUJOCO_GL must be set before mujoco is imported
     import mujoco
@@ -237,7 +239,7 @@ class SunShadows:
                 (columns).
         """
         lay = layout
-        eye_depth = (znear * zfar) / (zfar - depth * (zfar - znear))
+        eye_depth = eye_depths(depth, znear, zfar)
         # a pixel's point is eye + z (u right + v up - backward), so each of its coordinates
         # along the map's axes is a + z (u b + v c - d) with a scalar a, b, c, d per view
         offset = self.to_map(eye[None])[0]
