@@ -80,9 +80,7 @@ def main(args: Args) -> None:
         title = "18.5 h" + (", auto white balance, vignetting 0.3" if white_balance else "")
         rows.append((title, _panorama(camera.env_kwargs("after", args.world_seed))))
     # 6 inches: the panoramas' own 600 columns, no pixel repeated
-    args.out.parent.mkdir(parents=True, exist_ok=True)
     save_strip(rows, args.out, f"textured paper_outdoor seed {args.world_seed}", width=6.0)
-    print(f"wrote {args.out} ({args.out.stat().st_size / 1e3:.0f} kB)")
 
 
 if __name__ == "__main__":

@@ -51,7 +51,8 @@ def save_strip(
 ) -> None:
     """Panoramas one above the other, each titled ``prefix, title``, in a figure ``width``
     inches wide (100 pixels each) and ``height`` high (None: each row at its own aspect, with
-    room for its title); rows of other aspects get heights in proportion."""
+    room for its title); rows of other aspects get heights in proportion. Makes ``path``'s
+    folder and says what it wrote."""
     if height is None:
         height = sum(width * image.shape[0] / image.shape[1] + 0.25 for _, image in rows)
     from matplotlib.figure import Figure
@@ -63,7 +64,9 @@ def save_strip(
         ax.imshow(image, interpolation=interpolation)
         ax.set_title(f"{prefix}, {title}", fontsize=8, loc="left")
         ax.set_axis_off()
+    path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=100)
+    print(f"wrote {path} ({path.stat().st_size / 1e3:.0f} kB)")
 
 
 def main(args: Args) -> None:

@@ -69,9 +69,7 @@ def main(args: Args) -> None:
     obs, _ = mirror.reset(seed=0, options={"pose": POSE, "time_of_day": hour})
     mirror.close()
     rows.append((f"{hour:g} h, with shadows: the mirror camera's 600 x 60 panorama", obs))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
     save_strip(rows, args.out, f"textured paper_outdoor seed {args.world_seed}", width=9.0)
-    print(f"wrote {args.out} ({args.out.stat().st_size / 1e3:.0f} kB)")
 
 
 if __name__ == "__main__":

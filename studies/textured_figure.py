@@ -70,10 +70,8 @@ def main(args: Args) -> None:
         env.close()
 
     height = sum(10.0 * image.shape[0] / image.shape[1] + 0.25 for _, image in rows)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
     prefix = f"paper_outdoor seed {args.world_seed}, {args.hour:g} h"
     save_strip(rows, args.out, prefix, height, interpolation="antialiased")
-    print(f"wrote {args.out} ({args.out.stat().st_size / 1e3:.0f} kB)")
 
 
 if __name__ == "__main__":

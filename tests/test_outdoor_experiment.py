@@ -37,6 +37,8 @@ def test_each_condition_changes_one_thing_against_the_run_right_after_training()
         ("other_day", {"day": 1}),
         ("fog", fog),
         ("rearranged", {"arrangement": 1}),
+        ("wet", {"ground": "wet"}),
+        ("snow", {"ground": "snow"}),
     ):
         kwargs = config.env_kwargs(condition, 0)
         assert kwargs.pop("dynamics") == dataclasses.replace(declared, **change)
@@ -50,6 +52,8 @@ def test_each_condition_changes_one_thing_against_the_run_right_after_training()
         "fog",
         "rearranged",
         "other_season",
+        "wet",
+        "snow",
     }
 
 

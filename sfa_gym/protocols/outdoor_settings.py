@@ -13,6 +13,8 @@ that left or came, bins, benches, a building-site fence: :mod:`sfa_gym.sim.world
 and nothing else changed; ``other_day`` changes the clouds and movers only. ``other_season``
 (a dated drive only) is the test path ``season_days`` later in the year at the same hour: the
 sun of that date and, with ``seasons``, the trees' foliage (several: ``other_season+92d``, ...).
+``wet`` and ``snow`` are the drive's day and hour with the ground wet after rain or under snow
+(the asphalt cleared to wet slush; :mod:`sfa_gym.sim.worlds.ground`), nothing else changed.
 """
 
 from __future__ import annotations
@@ -35,7 +37,16 @@ __all__ = ["CONDITIONS", "ENV_ID", "Camera", "Condition", "Config"]
 ENV_ID = "sfa_gym/OmniRoverOutdoor-v0"
 """The env every outdoor run is rendered in."""
 Condition = Literal[
-    "after", "later", "overcast", "no_movers", "other_day", "fog", "rearranged", "other_season"
+    "after",
+    "later",
+    "overcast",
+    "no_movers",
+    "other_day",
+    "fog",
+    "rearranged",
+    "other_season",
+    "wet",
+    "snow",
 ]
 CONDITIONS: tuple[str, ...] = get_args(Condition)
 """The kinds of test condition (see the module docstring); ``later`` and ``other_day`` give one
@@ -70,6 +81,9 @@ class Config:
     seasons: bool = False
     """the trees' foliage by the date (only with day_of_year): leaf-out, autumn colours, bare
     crowns in winter (sfa_gym.sim.worlds.seasons); False: the crowns as drawn"""
+    grass_seasons: bool = False
+    """the lawn's colour by the date (only with day_of_year): green from May to October,
+    dormant straw-olive in winter (sfa_gym.sim.worlds.ground); False: the lawn as drawn"""
     shadows: bool = False
     """the sun's cast shadows, moving with the clock (sfa_gym.sim.camera.shadows; about twice
     the rendering time)"""
@@ -78,8 +92,9 @@ class Config:
     other_day; None: the world's own (day 0)"""
     conditions: tuple[Condition, ...] = ("after",)
     """test conditions scored (appearance tracks): after, later, overcast, no_movers,
-    other_day, fog, rearranged, other_season; "after" is scored always, a track's score is
-    the mean over these"""
+    other_day, fog, rearranged, other_season, wet (the ground wet after rain), snow (snow
+    lying, the asphalt cleared); "after" is scored always, a track's score is the mean over
+    these"""
     later_hours: float | tuple[float, ...] = 4.0
     """the "later" test run starts this many hours after the "after" one; several
     (--later-hours 2 6): one condition each, named later+2h, later+6h"""
@@ -165,7 +180,15 @@ class Config:
                 "they need dynamics=True"
             )
         self._validate_clock()
-        switches = ("dynamics", "sensor", "vibration", "textures", "white_balance", "seasons")
+        switches = (
+            "dynamics",
+            "sensor",
+            "vibration",
+            "textures",
+            "white_balance",
+            "seasons",
+            "grass_seasons",
+        )
         for name in (*switches, "shadows"):
             if not isinstance(getattr(self, name), bool):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
@@ -212,6 +235,10 @@ class Config:
                 raise ValueError(f"day must be an integer >= 0, got {self.day!r}")
         if self.seasons and self.day_of_year is None:
             raise ValueError("seasons=True sets the foliage by the date: give a day_of_year too")
+        if self.grass_seasons and self.day_of_year is None:
+            raise ValueError(
+                "grass_seasons=True sets the lawn's colour by the date: give a day_of_year too"
+            )
         given = [n for n in ("day_of_year", "day") if getattr(self, n) is not None]
         if given and not self.dynamics:
             raise ValueError(f"{given} set the world's dynamics: they need dynamics=True")
@@ -292,7 +319,8 @@ class Config:
             for name in ("day_of_year", "latitude_deg", "day")
             if getattr(self, name) is not None
         }
-        change.update({name: True for name in ("seasons", "shadows") if getattr(self, name)})
+        switches = ("seasons", "grass_seasons", "shadows")
+        change.update({name: True for name in switches if getattr(self, name)})
         return dataclasses.replace(declared, **change) if change else declared
 
     def driver(self, part: Literal["train", "test", "both"]) -> Any:
@@ -346,6 +374,8 @@ class Config:
             "other_day": {"day": spec.day + int(offset)},
             "fog": {"overcast": 1.0, "visibility_m": self.fog_visibility_m},
             "rearranged": {"arrangement": spec.arrangement + 1},
+            "wet": {"ground": "wet"},
+            "snow": {"ground": "snow"},
         }
         if kind == "other_season":  # a dated drive (checked): its date that many days on
             change[kind] = {"day_of_year": (spec.day_of_year - 1 + int(offset)) % 365 + 1}

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from sfa_gym.sim.worlds.ground import GROUND_SURFACES, GroundLook
 from sfa_gym.sim.worlds.spec import SurfaceSpec, WorldSpec
 from sfa_gym.sim.worlds.texturing import Texturer
 
@@ -34,26 +35,40 @@ class Builder:
         self.n_materials = 0
         # generated textures (a spec's ``textures`` block), drawn apart from ``rng``; None: off
         self.textures: Texturer | None = None
+        # the day's ground (wet, snow, the lawn's season); None: the ground as built
+        self.ground: GroundLook | None = None
         self.colours: dict[str, tuple[float, float, float]] = {}  # material -> mean colour
+        # material -> how it was made (colours, texture), so that a ground look can remake it
+        self._recipes: dict[str, dict[str, Any]] = {}
+        self._looked: dict[str, str] = {}  # material -> its version under ``ground``
 
     def textured(self, surface: str, material: str, **extra: Any) -> str:
         """``material``; with generated textures on, a material of the ``surface``'s texture
         (:data:`~sfa_gym.sim.worlds.texturing.SURFACES`) in ``material``'s mean colour
-        instead (``extra``: see :meth:`Texturer.material`)."""
+        instead (``extra``: see :meth:`Texturer.material`). A ground surface
+        (:data:`~sfa_gym.sim.worlds.ground.GROUND_SURFACES`) takes the day's ``ground`` look."""
+        look = self.ground if surface in GROUND_SURFACES else None
         if self.textures is None:
-            return material
+            return material if look is None else self._remade(material, surface, look)
         rgb = extra.pop("rgb", None) or self.colours[material]
-        return self.textures.material(surface, material, rgb, self.assets, **extra)
+        return self.textures.material(surface, material, rgb, self.assets, look=look, **extra)
 
     def plain_material(self, rgb: tuple[float, float, float], alpha: float = 1.0) -> str:
         """A matte material of colour ``rgb`` (``alpha`` < 1: see-through)."""
         name = f"mat{self.n_materials}"
         self.n_materials += 1
         self.colours[name] = rgb
-        self.assets.append(
-            f'<material name="{name}" rgba="{vec(*rgb, alpha)}" specular="0" shininess="0"/>'
-        )
+        self._recipes[name] = {"rgb": rgb, "alpha": alpha}
+        self._emit_plain(name, rgb, alpha)
         return name
+
+    def _emit_plain(
+        self, name: str, rgb: Any, alpha: float, finish: tuple[float, float] = (0.0, 0.0)
+    ) -> None:
+        self.assets.append(
+            f'<material name="{name}" rgba="{vec(*rgb, alpha)}" specular="{num(finish[0])}" '
+            f'shininess="{num(finish[1])}"/>'
+        )
 
     def surface_material(self, surface: SurfaceSpec) -> str:
         """A textured material drawn from ``surface``: kind, two colours, repeat, marks."""
@@ -68,15 +83,54 @@ class Builder:
         mean = np.asarray(rgb1) if kind == "flat" else (np.asarray(rgb1) + np.asarray(rgb2)) / 2
         mean = (1 - surface.marks) * mean + surface.marks * np.asarray(mark_rgb)
         self.colours[name] = (float(mean[0]), float(mean[1]), float(mean[2]))
-        marks = ""
-        if surface.marks > 0:
-            marks = f' mark="random" random="{num(surface.marks)}" markrgb="{vec(*mark_rgb)}"'
+        recipe = {
+            "kind": kind,
+            "rgb1": rgb1,
+            "rgb2": rgb2,
+            "mark_rgb": mark_rgb,
+            "marks": surface.marks,
+            "repeat": repeat,
+        }
+        self._recipes[name] = recipe
+        self._emit_surface(name, **recipe)
+        return name
+
+    def _emit_surface(
+        self,
+        name: str,
+        kind: str,
+        rgb1: Any,
+        rgb2: Any,
+        mark_rgb: Any,
+        marks: float,
+        repeat: float,
+        finish: tuple[float, float] = (0.0, 0.0),
+    ) -> None:
+        mark = ""
+        if marks > 0:
+            mark = f' mark="random" random="{num(marks)}" markrgb="{vec(*mark_rgb)}"'
         self.assets.append(
             f'<texture name="tex_{name}" type="2d" builtin="{kind}" rgb1="{vec(*rgb1)}" '
-            f'rgb2="{vec(*rgb2)}" width="128" height="128"{marks}/>'
+            f'rgb2="{vec(*rgb2)}" width="128" height="128"{mark}/>'
         )
         self.assets.append(
             f'<material name="{name}" texture="tex_{name}" texrepeat="{vec(repeat, repeat)}" '
-            f'texuniform="true" specular="0" shininess="0"/>'
+            f'texuniform="true" specular="{num(finish[0])}" shininess="{num(finish[1])}"/>'
         )
-        return name
+
+    def _remade(self, material: str, surface: str, look: GroundLook) -> str:
+        """``material`` (of this builder) remade under the ground ``look``: its colours
+        changed as ``surface``'s, its finish the look's; made once, then shared."""
+        if material not in self._looked:
+            name = f"{material}_{look.ground}"
+            recipe = dict(self._recipes[material])
+            for key in ("rgb", "rgb1", "rgb2", "mark_rgb"):
+                if key in recipe:
+                    recipe[key] = tuple(float(v) for v in look.colour(surface, recipe[key]))
+            finish = look.finish(surface)
+            if "rgb" in recipe:
+                self._emit_plain(name, recipe["rgb"], recipe["alpha"], finish)
+            else:
+                self._emit_surface(name, **recipe, finish=finish)
+            self._looked[material] = name
+        return self._looked[material]

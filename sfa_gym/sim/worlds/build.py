@@ -16,6 +16,7 @@ from sfa_gym.sim.worlds._mjcf import num as _num
 from sfa_gym.sim.worlds._mjcf import vec as _vec
 from sfa_gym.sim.worlds.dynamics import DynamicsSpec, Lanes, mover_lanes, movers_mjcf
 from sfa_gym.sim.worlds.facades import designs_for
+from sfa_gym.sim.worlds.ground import ground_look_for
 from sfa_gym.sim.worlds.layout import WorldLayout
 from sfa_gym.sim.worlds.outdoor import build_outdoor, outer_reach
 from sfa_gym.sim.worlds.rearrange import rearranged_for
@@ -378,7 +379,8 @@ def build_world(
         world_seed: seed of ``np.random.default_rng``; same seed -> identical MJCF text.
         robot: the robot's MJCF pieces (its bodies go into the worldbody).
         dynamics: the dynamics it runs under (an env's; None: the spec's): an outdoor world's
-            parked objects of their ``arrangement`` day, its trees of their date (``seasons``).
+            parked objects of their ``arrangement`` day, its trees of their date (``seasons``),
+            the ground's state and the lawn's season (``ground``, ``grass_seasons``).
 
     Returns:
         The MJCF text of the whole model and the world's layout. The model contains a fixed
@@ -390,6 +392,8 @@ def build_world(
     b = _Builder(spec, rng)
     if spec.textures is not None:
         b.textures = Texturer(spec.textures, int(world_seed))
+    # the day's ground (wet, snow, the lawn's season); None: as built
+    b.ground = ground_look_for(spec.dynamics if dynamics is None else dynamics)
     arena = spec.arena
     hx, hy = arena.size[0] / 2, arena.size[1] / 2
     zenith, horizon = spec.sky.zenith.draw(rng), spec.sky.horizon.draw(rng)

@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from sfa_gym._checks import is_number
 from sfa_gym.sim.camera.fog import check_visibility
+from sfa_gym.sim.worlds.ground import check_ground
 
 # the movers live in their own module; their public names are re-exported here
 from sfa_gym.sim.worlds.movers import (
@@ -126,6 +127,12 @@ class DynamicsSpec:
             False: the crowns as drawn, whatever the date.
         shadows: the sun's cast shadows on the ground (:mod:`sfa_gym.sim.camera.shadows`),
             moving with the clock and fading under clouds.
+        ground: the ground's state: ``"dry"``, ``"wet"`` (after rain: darker, with the
+            water film's highlight) or ``"snow"`` (lying snow; the asphalt cleared to wet
+            slush); :mod:`sfa_gym.sim.worlds.ground`.
+        grass_seasons: the lawn's colour by the date (needs a ``day_of_year``): green from
+            May to October, a dormant straw-olive in winter (:mod:`sfa_gym.sim.worlds.ground`);
+            False: the lawn as drawn, whatever the date.
         road: the road of the cyclists and cars.
         clock, clouds, movers: switch each effect (the clock off holds the sun where it
             stood when the episode started, while clouds and movers go on; the movers off
@@ -156,6 +163,8 @@ class DynamicsSpec:
     rearrange_share: float = 0.5
     seasons: bool = False
     shadows: bool = False
+    ground: str = "dry"
+    grass_seasons: bool = False
 
     def __post_init__(self) -> None:
         check_value(
@@ -204,7 +213,7 @@ class DynamicsSpec:
             is_number(self.rearrange_share) and 0.0 <= self.rearrange_share <= 1.0,
             f"rearrange_share must lie in [0, 1], got {self.rearrange_share!r}",
         )
-        for name in ("clock", "clouds", "movers", "seasons", "shadows"):
+        for name in ("clock", "clouds", "movers", "seasons", "shadows", "grass_seasons"):
             value = getattr(self, name)
             check_value(isinstance(value, bool), f"{name} must be True or False, got {value!r}")
         check_visibility(self.visibility_m)
@@ -214,6 +223,12 @@ class DynamicsSpec:
             not self.seasons or self.day_of_year is not None,
             "seasons=True sets the foliage by the date: give a day_of_year (1..366) too",
         )
+        check_value(
+            not self.grass_seasons or self.day_of_year is not None,
+            "grass_seasons=True sets the lawn's colour by the date: give a day_of_year (1..366) "
+            "too",
+        )
+        check_ground(self.ground)
         if self.latitude_deg is not None:
             check_latitude(self.latitude_deg)
             check_value(

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from sfa_gym.sim.worlds import textures as _tx
+from sfa_gym.sim.worlds.ground import GroundLook
 from sfa_gym.sim.worlds.spec import WorldSpec
 from sfa_gym.sim.worlds.textures import RGB, TexturesSpec
 
@@ -60,10 +61,13 @@ class Texturer:
             [self.world_seed, _STREAM, SURFACES.index(surface), zlib.crc32(source.encode())]
         )
 
-    def image(self, surface: str, source: str, rgb: RGB, **extra: Any) -> np.ndarray:
+    def image(
+        self, surface: str, source: str, rgb: RGB, look: GroundLook | None = None, **extra: Any
+    ) -> np.ndarray:
         """The ``(n, n, 3)`` uint8 texture of ``surface`` replacing material ``source`` of
-        mean colour ``rgb``; ``extra`` for facades: ``glass`` (RGB), ``bays`` (columns,
-        storeys) and ``bay_m`` (width, height)."""
+        mean colour ``rgb``, under the ground ``look`` (None: as generated); ``extra`` for
+        facades: ``glass`` (RGB), ``bays`` (columns, storeys) and ``bay_m`` (width,
+        height)."""
         if surface not in SURFACES:
             raise ValueError(f"surface must be one of {SURFACES}, got {surface!r}")
         rng, spec = self._rng(surface, source), self.spec
@@ -84,6 +88,8 @@ class Texturer:
         else:
             gaps = spec.canopy_gaps * (0.5 if surface == "bush" else 1.0)
             out = _tx.foliage(rng, n, rgb, gaps)
+        if look is not None:  # drawn after the texture: the texture stays as it was
+            out = look.texture(surface, out, rng)
         return _tx.to_uint8(out)
 
     def material(
@@ -94,6 +100,7 @@ class Texturer:
         assets: list[str],
         repeat: tuple[float, float] | None = None,
         alpha: float = 1.0,
+        look: GroundLook | None = None,
         **extra: Any,
     ) -> str:
         """The name of a textured material for ``surface`` in place of material ``source``;
@@ -108,6 +115,7 @@ class Texturer:
             repeat: texture repeats per face (facades: windows and storeys per face); None:
                 one tile per ``tile_m`` metres (ground surfaces) or a cube texture.
             alpha: the material's opacity (below 1: see-through).
+            look: the day's ground look (a ground surface's; None: as generated).
             extra: the facade's ``glass`` colour and ``bay_m`` (width, height).
         """
         key = (surface, source)
@@ -115,8 +123,10 @@ class Texturer:
             return self._made[key]
         name = f"gen_{surface}{len(self._made)}"
         self._made[key] = name
-        self.files[f"{name}.png"] = _tx.png_bytes(self.image(surface, source, rgb, **extra))
-        plain = 'specular="0" shininess="0"'
+        image = self.image(surface, source, rgb, look, **extra)
+        self.files[f"{name}.png"] = _tx.png_bytes(image)
+        specular, shininess = (0.0, 0.0) if look is None else look.finish(surface)
+        plain = f'specular="{_fmt(specular)}" shininess="{_fmt(shininess)}"'
         if alpha != 1.0:
             plain += f' rgba="1 1 1 {_fmt(alpha)}"'
         if surface in CUBE_SURFACES:
