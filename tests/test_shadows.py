@@ -71,10 +71,45 @@ def test_the_box_shadow_falls_where_the_sun_rays_put_it(box_shadows):
     # a pillar on one side only: its shadow on that side (the map is not mirrored)
     assert shadows.in_shadow(np.array([(1.2, 3.0, z)])).all()
     assert not shadows.in_shadow(np.array([(1.2, -3.0, z)])).any()
-    # the moving box casts none: beyond it, where its shadow would fall, the ground is lit
+    # without the camera's place the moving box casts none: where its shadow would fall, the
+    # ground is lit
     assert not shadows.in_shadow(np.array([(-3.0, 3.0, z)])).any()
     # points outside the map are lit
     assert not shadows.in_shadow(np.array([(40.0, 0.0, z)])).any()
+
+
+@pytest.mark.parametrize(("centre", "near"), [((0.0, 0.0, 1.0), True), ((30.0, 0.0, 1.0), False)])
+def test_a_moving_body_near_the_camera_casts_its_shadow_too(centre, near):
+    model = mujoco.MjModel.from_xml_string(BOX_SCENE)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    context = gl.new_context(256, 256, "the box scene")
+    con = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50)
+    mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, con)
+    scene = mujoco.MjvScene(model, maxgeom=100)
+    mujoco.mjv_updateScene(
+        model,
+        data,
+        mujoco.MjvOption(),
+        None,
+        mujoco.MjvCamera(),
+        mujoco.mjtCatBit.mjCAT_ALL,
+        scene,
+    )
+    shadows = SunShadows(model, texels=256, moving_texels=256)
+    try:
+        shadows.update(data, scene, con, np.array(centre))
+        z = 0.01
+        # the moving box (x -2..-1, y 2.5..3.5, 2 m high) shades x -4..-1 at its y, if it is
+        # within the moving map's reach of the camera; the static box's shadow stays
+        mover = np.array([(-3.0, 3.0, z), (-1.8, 2.7, z), (-3.8, 3.3, z)])
+        assert shadows.in_shadow(mover).all() == near
+        assert shadows.in_shadow(mover).any() == near
+        assert not shadows.in_shadow(np.array([(-3.0, 4.0, z), (-4.5, 3.0, z)])).any()
+        assert shadows.in_shadow(np.array([(-1.5, 0.0, z)])).all()
+    finally:
+        con.free()
+        context.free()
 
 
 def test_the_depth_map_leaves_the_scene_cameras_as_they_were(box_shadows):

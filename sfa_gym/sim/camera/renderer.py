@@ -453,7 +453,7 @@ class OmniCamera:
                 self._sun_shadows = SunShadows(self.model)
             sun = self._sun_shadows.scene_sun(self._scene)
             if sun is not None:
-                self._sun_shadows.update(data, self._scene, self._con)
+                self._sun_shadows.update(data, self._scene, self._con, eye)
         self._render_views(data, eye, frames)
         if self.visibility_m is None and sun is None:
             mujoco.mjr_readPixels(self._buffer, None, self._full_rect, self._con)

@@ -8,9 +8,10 @@ itself, with the rasteriser for the geometry and numpy for the test:
    fences, bushes, curbs, the ground): one orthographic render looking along the sun's rays
    over the world's extent, redrawn when the sun has moved by :data:`DIRECTION_STEP_DEG`
    (every 10-20 s of the clock), so that the same sun gives the same pixels whatever came
-   before.
+   before; and a second, smaller map of the moving bodies (the rover itself, the people,
+   cyclists and cars) within :data:`MOVING_HALF_WIDTH_M` of the camera, redrawn every frame.
 2. **Each view twice**, with and without the sun's light. A pixel whose surface point lies
-   behind the depth map's surface, seen from the sun, shows the second render: the same
+   behind either map's surface, seen from the sun, shows the second render: the same
    surface lit by the sky and the fill lights only. Both renders use MuJoCo's lighting, so a
    shaded surface is exactly that surface without the sun (faces turned from the sun do not
    change), on walls, cars and the ground alike. The map's depth is interpolated between its
@@ -20,9 +21,8 @@ Every part is a pure function of the scene and the sun, so shadows keep the came
 deterministic. Under an overcast sky or at night the sun has no light to take away and the
 second render is skipped.
 
-Not modelled: shadows of the movers and of the rover itself (the map holds the static scene
-only, so that it can be reused between frames), and the sun's half-degree penumbra (1 cm per
-metre of height) beyond the map's texel (:data:`MAP_TEXELS` over the world's extent: about
+Not modelled: shadows of movers farther than :data:`MOVING_HALF_WIDTH_M` from the camera, and
+the sun's half-degree penumbra (1 cm per metre of height) beyond the maps' texels (:data:`MAP_TEXELS` over the world's extent: about
 4 cm in the outdoor world). Light through see-through crowns in winter is blocked as by
 leaves: the map records the first surface.
 """
@@ -56,6 +56,13 @@ the sun moves about 0.25 degrees a minute."""
 
 MAP_TEXELS = 2048
 """Side of the sun's depth map, texels, over twice the world's extent (``model.stat.extent``)."""
+
+MOVING_TEXELS = 512
+"""Side of the moving bodies' depth map, texels (about 3 cm each)."""
+
+MOVING_HALF_WIDTH_M = 8.0
+"""The moving bodies' map covers this many metres either side of the camera: the rover's own
+shadow and those of the movers near it; a mover farther away casts none."""
 
 _BIAS_M = 0.02  # a surface is in shadow only this far (m) behind the map's, plus the slope term
 _SLOPE_BIAS = 1.5  # times the map's largest depth step between neighbouring texels
@@ -95,17 +102,23 @@ class SunShadows:
     Args:
         model: a compiled model with a light named ``"sun"``; its geoms of the world body are
             the static scene, centred on the origin within ``model.stat.extent``.
-        texels: the depth map's side.
+        texels: the static scene's depth map's side.
+        moving_texels: the side of the moving bodies' map (:data:`MOVING_HALF_WIDTH_M` either
+            side of the camera).
 
     Raises:
-        ValueError: the model has no light named ``"sun"``, or ``texels`` is not an int >= 16.
+        ValueError: the model has no light named ``"sun"``, or ``texels`` or
+            ``moving_texels`` is not an int >= 16.
     """
 
-    def __init__(self, model: mujoco.MjModel, texels: int = MAP_TEXELS) -> None:
+    def __init__(
+        self, model: mujoco.MjModel, texels: int = MAP_TEXELS, moving_texels: int = MOVING_TEXELS
+    ) -> None:
         import mujoco
 
-        if isinstance(texels, bool) or not isinstance(texels, int) or texels < 16:
-            raise ValueError(f"texels must be an int >= 16, got {texels!r}")
+        for name, value in (("texels", texels), ("moving_texels", moving_texels)):
+            if isinstance(value, bool) or not isinstance(value, int) or value < 16:
+                raise ValueError(f"{name} must be an int >= 16, got {value!r}")
         self.sun = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_LIGHT, "sun")
         if self.sun < 0:
             raise ValueError("shadows need the sun: the model has no light named 'sun'")
@@ -118,7 +131,10 @@ class SunShadows:
         self._origin: NDArray[np.float64] | None = None  # the map camera's eye
         # the distance along the rays (m) beyond which a point is in shadow, per texel
         self._threshold: NDArray[np.float32] | None = None
-        self._bias: NDArray[np.float32] | None = None
+        self.moving_texels = moving_texels
+        # the moving bodies' map (redrawn every frame) and its camera's eye
+        self._moving: NDArray[np.float32] | None = None
+        self._moving_origin: NDArray[np.float64] | None = None
 
     def scene_sun(self, scene: mujoco.MjvScene) -> Any:
         """The ``scene``'s light of the sun while it shines; None at night or under an overcast
@@ -143,26 +159,56 @@ class SunShadows:
         )
 
     def update(
-        self, data: mujoco.MjData, scene: mujoco.MjvScene, context: mujoco.MjrContext
+        self,
+        data: mujoco.MjData,
+        scene: mujoco.MjvScene,
+        context: mujoco.MjrContext,
+        centre: NDArray[np.float64] | None = None,
     ) -> None:
-        """Redraw the depth map if the sun has moved, with ``scene`` (updated for ``data``) and
-        ``context`` (current, with an offscreen buffer of at least :attr:`texels` a side). The
-        scene's cameras and geoms are left as they were."""
+        """Redraw the static scene's depth map if the sun has moved, and the moving bodies' map
+        around ``centre`` (the camera's eye, world; None: no moving bodies' shadows), with
+        ``scene`` (updated for ``data``) and ``context`` (current, with an offscreen buffer of
+        at least :attr:`texels` and :attr:`moving_texels` a side). The scene's cameras and
+        geoms are left as they were."""
+        key, ray = self._ray(data)
+        if key != self._key:
+            forward = ray
+            up = np.array([0.0, 0.0, 1.0]) - forward[2] * forward
+            if np.linalg.norm(up) < 1e-6:  # the sun in the zenith
+                up = np.array([0.0, 1.0, 0.0])
+            up /= np.linalg.norm(up)
+            self._frame = np.stack([np.cross(forward, up), up, forward])
+            self._origin = -2.0 * self.half_width * forward  # the extent lies in [near, far]
+            self._threshold = self._draw(scene, context, self._origin, self.half_width, True)
+            self._key = key
+        self._moving = None
+        if centre is not None and self.moving_texels:
+            # the moving bodies' map: centred on the camera, on the static map's rays
+            centre = np.asarray(centre, dtype=np.float64)
+            assert self._origin is not None
+            forward = self._axes()[2]
+            across = (centre - self._origin) - ((centre - self._origin) @ forward) * forward
+            self._moving_origin = self._origin + across
+            self._moving = self._draw(
+                scene, context, self._moving_origin, MOVING_HALF_WIDTH_M, False
+            )
+
+    def _draw(
+        self,
+        scene: mujoco.MjvScene,
+        context: mujoco.MjrContext,
+        origin: NDArray[np.float64],
+        half: float,
+        static: bool,
+    ) -> NDArray[np.float32]:
+        """The shadow threshold per texel (distance along the rays, m, bias added) of the
+        static geoms (``static``) or of the moving ones, seen along the sun's rays from
+        ``origin`` over ``half`` metres either side."""
         import mujoco
 
-        key, ray = self._ray(data)
-        if key == self._key:
-            return
-        n, half = self.texels, self.half_width
-        forward = ray
-        up = np.array([0.0, 0.0, 1.0]) - forward[2] * forward
-        if np.linalg.norm(up) < 1e-6:  # the sun in the zenith
-            up = np.array([0.0, 1.0, 0.0])
-        up /= np.linalg.norm(up)
-        right = np.cross(forward, up)
-        near, far = 0.01 * half, 4.0 * half
-        origin = -2.0 * half * forward  # everything within the extent lies in [near, far]
-
+        n = self.texels if static else self.moving_texels
+        right, up, forward = self._axes()
+        near, far = 0.01 * self.half_width, 4.0 * self.half_width
         saved_cameras = [
             {name: _copy(getattr(c, name)) for name in _GL_CAMERA} for c in scene.camera
         ]
@@ -170,8 +216,10 @@ class SunShadows:
         none = mujoco.mjtGeom.mjGEOM_NONE
         for j in range(scene.ngeom):
             g = scene.geoms[j]
-            moving = g.objtype != mujoco.mjtObj.mjOBJ_GEOM or not self._static[g.objid]
-            if moving and g.type != none:
+            is_geom = g.objtype == mujoco.mjtObj.mjOBJ_GEOM
+            fixed = is_geom and self._static[g.objid]
+            keep = fixed if static else is_geom and not fixed
+            if not keep and g.type != none:
                 hidden.append((g, g.type))
                 g.type = none
         skybox = scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX]
@@ -209,12 +257,9 @@ class SunShadows:
         # a neighbour across an edge is no slope: a texel's bias is at most a few texels' worth
         texel = 2.0 * half / n
         step = np.minimum(step, 8.0 * texel)
-        self._bias = (_BIAS_M + _SLOPE_BIAS * step).astype(np.float32)
-        self._bias[depth >= 1.0] = _FAR  # nothing there: lit
-        self._threshold = distance + self._bias
-        self._frame = np.stack([right, up, forward])
-        self._origin = origin
-        self._key = key
+        bias = (_BIAS_M + _SLOPE_BIAS * step).astype(np.float32)
+        bias[depth >= 1.0] = _FAR  # nothing there: lit
+        return distance + bias
 
     # -- the test -------------------------------------------------------------------------------
 
@@ -281,20 +326,34 @@ class SunShadows:
     def shaded(
         self, column: NDArray[np.float32], row: NDArray[np.float32], distance: NDArray[np.float32]
     ) -> NDArray[np.bool_]:
-        """Which points (:meth:`light_coordinates`) lie behind the map's surface, seen from the
-        sun: in its shadow. The map's depth is interpolated between texels; points outside the
-        map are lit."""
+        """Which points (:meth:`light_coordinates`) lie behind the static scene's or a moving
+        body's surface, seen from the sun: in its shadow. The maps' depth is interpolated
+        between texels; points outside a map are lit by it."""
         if self._threshold is None:
             raise RuntimeError("SunShadows.update() has not drawn a depth map yet")
-        limit = cv2.remap(
-            self._threshold,
-            column,
-            row,
-            cv2.INTER_LINEAR,
-            borderMode=cv2.BORDER_CONSTANT,
-            borderValue=_FAR,
-        )
-        return distance > limit
+        out = distance > _lookup(self._threshold, column, row)
+        if self._moving is not None:
+            assert self._origin is not None and self._moving_origin is not None
+            # the same rays, another origin across them and another texel size
+            ratio = np.float32(
+                self.moving_texels * self.half_width / (self.texels * MOVING_HALF_WIDTH_M)
+            )
+            shift = (self._moving_origin - self._origin) @ self._axes()[:2].T
+            shift *= self.moving_texels / (2.0 * MOVING_HALF_WIDTH_M)
+            centre, moving_centre = self.texels / 2.0 - 0.5, self.moving_texels / 2.0 - 0.5
+            col = (column - np.float32(centre)) * ratio + np.float32(moving_centre - shift[0])
+            row_ = (row - np.float32(centre)) * ratio + np.float32(moving_centre - shift[1])
+            out |= distance > _lookup(self._moving, col, row_)
+        return out
+
+
+def _lookup(
+    threshold: NDArray[np.float32], column: NDArray[np.float32], row: NDArray[np.float32]
+) -> NDArray[np.float32]:
+    """A map's threshold at the texel coordinates, interpolated; beyond the map: lit."""
+    return cv2.remap(
+        threshold, column, row, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=_FAR
+    )
 
 
 @contextmanager
