@@ -127,6 +127,20 @@ def seed_changes(track: Any, world_seed: int, runs: Any, args: Args) -> dict[str
     return out
 
 
+def _command(args: Args) -> str:
+    """The command line that writes this study's file, with the arguments that change it."""
+    words = ["python -m studies.appearance_change"]
+    for name in ("tracks", "extra"):
+        value = getattr(args, name)
+        if value != getattr(Args, name):
+            words.append(f"--{name} {' '.join(value)}")
+    if args.world_seeds != Args.world_seeds:
+        words.append(f"--world-seeds {args.world_seeds}")
+    if args.shadows:
+        words.append("--shadows")
+    return " ".join(words)
+
+
 def main(args: Args) -> None:
     from sfa_gym.leaderboard.tracks import default_track_folder, load_track
     from sfa_gym.recording.cache import RunCache
@@ -159,8 +173,7 @@ def main(args: Args) -> None:
         args.out,
         {
             "study": "appearance_change",
-            "command": "python -m studies.appearance_change"
-            + (" --shadows" if args.shadows else ""),
+            "command": _command(args),
             "shadows": args.shadows,
             "distance_m": args.distance,
             "every": args.every,

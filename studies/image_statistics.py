@@ -6,14 +6,16 @@ i)``, world seed 0); their grey levels' radially averaged amplitude spectrum is 
 ``1/f^alpha`` (natural scenes: about 1.0; issue 35 asks for 0.9-1.2) and the RMS contrast of
 their 8 x 8 patches is summarised by percentiles. The outdoor world is measured flat, with its
 generated textures (``sfa_gym/OmniRoverOutdoorTextured-v0``) and textured with the sun's cast
-shadows; the campus through its mirror camera. Two photographs measured the same way calibrate
-the yardstick at this size: scikit-learn's sample images (a temple among
-trees, and a flower before a blurred background), cut into overlapping strips of the
-panoramas' 1:10 aspect and shrunk to 60 x 600. Writes ``published/studies/
+shadows; the campus through both cameras. Every cylindrical view is also rendered at
+:data:`SHARP` times its rows and columns and fitted over the same angles: that slope is the
+world's own, without the blur of the camera's anti-aliasing at the finest fitted scales. Two
+photographs measured the same way calibrate the yardstick at this size: scikit-learn's sample
+images (a temple among trees, and a flower before a blurred background), cut into overlapping
+strips of the panoramas' 1:10 aspect and shrunk to 60 x 600. Writes ``published/studies/
 image_statistics.json`` and ``docs/image_statistics.png`` (the spectra, log-log, beside the
 natural-image band).
 
-Usage (from the repository root; about a minute on 2 cores)::
+Usage (from the repository root; a few minutes on 2 cores)::
 
     .venv/bin/python -m studies.image_statistics
 """
@@ -55,6 +57,10 @@ VIEWS: dict[str, tuple[str, dict[str, Any]]] = {
         "sfa_gym/OmniRoverOutdoorTextured-v0",
         {"shadows": True},
     ),
+    "campus, cylindrical 60 x 600": (
+        "sfa_gym/OmniRoverCampus-v0",
+        {"camera": "cylindrical", "mirror": None, "sensor": False},
+    ),
     "campus, mirror 60 x 600": ("sfa_gym/OmniRoverCampus-v0", {}),
 }
 """The worlds and cameras measured: an env id and its kwargs."""
@@ -64,6 +70,12 @@ PHOTOGRAPHS = {
     "photograph, flower, 60 x 600 strips": "flower.jpg",
 }
 """Reference rows: scikit-learn's sample photographs (``sklearn.datasets.load_sample_image``)."""
+
+SHARP = 4
+"""The cylindrical views are rendered again at this many times their rows and columns, and
+their slope fitted over the same angular frequencies: the world's own slope, without the
+camera's anti-aliasing (its supersampling, box filter and resampling blur the finest
+fitted scales of the panorama's own size)."""
 
 NATURAL = (0.9, 1.2)
 """The band of ``alpha`` the worlds should reach (natural scenes: about 1.0)."""
@@ -79,16 +91,38 @@ class Args:
     """where to draw the spectra"""
 
 
-def _panoramas(env_id: str, kwargs: dict[str, Any], n: int) -> np.ndarray:
+def _panoramas(env_id: str, kwargs: dict[str, Any], n: int, scale: int = 1) -> np.ndarray:
+    """``n`` panoramas at seeded random poses; ``scale`` > 1: the env's cylindrical panorama
+    with ``scale`` times its rows and columns."""
+    import dataclasses
+
     import gymnasium as gym
 
     import sfa_gym  # noqa: F401  (registers the envs)
 
+    if scale > 1:
+        probe = gym.make(env_id, **kwargs)
+        spec = probe.unwrapped.panorama
+        probe.close()
+        kwargs = {
+            **kwargs,
+            "panorama": dataclasses.replace(
+                spec, width=spec.width * scale, height=spec.height * scale
+            ),
+        }
     env = gym.make(env_id, **kwargs)
     try:
         return np.stack([env.reset(seed=i)[0] for i in range(n)])
     finally:
         env.close()
+
+
+def _cylindrical(env_id: str, kwargs: dict[str, Any]) -> bool:
+    import gymnasium as gym
+
+    return kwargs.get("camera", gym.spec(env_id).kwargs.get("camera", "cylindrical")) == (
+        "cylindrical"
+    )
 
 
 def _strips(photo: str, shape: tuple[int, int] = (60, 600)) -> np.ndarray:
@@ -119,10 +153,15 @@ def measure(n: int) -> dict[str, Any]:
             where = {"env_id": source[0], "env_kwargs": source[1]}
         spectrum = spectrum_slope(images)
         contrast = local_contrast(images)
+        sharp = None
+        if not isinstance(source, str) and _cylindrical(*source):
+            fine = _panoramas(source[0], source[1], n, SHARP)
+            sharp = round(spectrum_slope(fine, f_high=spectrum.f_high / SHARP).alpha, 3)
         out[name] = {
             **where,
             "shape": list(images.shape[1:3]),
             "alpha": round(spectrum.alpha, 3),
+            "alpha_sharp": sharp,
             "fitted_cycles_per_pixel": [round(spectrum.f_low, 4), spectrum.f_high],
             "contrast_percentiles": {
                 str(q): round(float(np.percentile(contrast, q)), 4) for q in (10, 50, 90)
@@ -133,7 +172,8 @@ def measure(n: int) -> dict[str, Any]:
             },
         }
         print(
-            f"{name:46s} alpha {spectrum.alpha:5.2f}, median local contrast "
+            f"{name:46s} alpha {spectrum.alpha:5.2f} ({SHARP}x sharper: {sharp}), median local "
+            "contrast "
             f"{out[name]['contrast_percentiles']['50']:.3f}"
         )
     return out
@@ -179,6 +219,7 @@ def main(args: Args) -> int:
         {
             "study": "image_statistics",
             "panoramas_per_view": args.panoramas,
+            "sharp_scale": SHARP,
             "natural_alpha_band": list(NATURAL),
             "views": found,
         },

@@ -311,21 +311,29 @@ def textures_build_table(files: Sequence[dict[str, Any]], options: dict[str, str
 def image_statistics_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
     """The amplitude spectrum's slope and the local contrast's percentiles of each world and
     camera (``studies/image_statistics.py``)."""
-    lines = _head(["world, camera", "alpha", "local contrast: 10 %", "median", "90 %"])
+    scale = files[0].get("sharp_scale", "-") if files else "-"
+    sharp = f"alpha, {scale}x sharper (the world's own)"
+    lines = _head(["world, camera", "alpha", sharp, "local contrast: 10 %", "median", "90 %"])
     for data in files:
         for name, view in data["views"].items():
             p = view["contrast_percentiles"]
-            lines.append(_row([name, f"{view['alpha']:.2f}", p["10"], p["50"], p["90"]]))
+            fine = view.get("alpha_sharp")
+            cells = [f"{view['alpha']:.2f}", "-" if fine is None else f"{fine:.2f}"]
+            lines.append(_row([name, *cells, p["10"], p["50"], p["90"]]))
     return "\n".join(lines)
 
 
 def appearance_change_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
     """Per appearance track and condition, the mean grey-level change of a panorama at a fixed
-    pose, that over the study's distance, and their ratio (``studies/appearance_change.py``)."""
+    pose, that over the study's distance, and their ratio (``studies/appearance_change.py``);
+    option ``conditions=a,b``: those conditions only."""
     lines = _head(["track", "condition", "fixed pose", "moved", "ratio", "pose offset (cm)"])
+    chosen = _split(options.get("conditions"))
     for data in files:
         for result in data["results"]:
             for condition, row in result["conditions"].items():
+                if chosen and condition not in chosen:
+                    continue
                 cells = [f"{row['fixed_pose']:.2f}", f"{result['moved']:.2f}"]
                 cells += [f"{row['ratio']:.2f}", f"{100 * row['pose_offset_max_m']:.1f}"]
                 lines.append(_row([result["track"], condition, *cells]))

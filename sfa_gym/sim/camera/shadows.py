@@ -57,10 +57,10 @@ the sun moves about 0.25 degrees a minute."""
 MAP_TEXELS = 2048
 """Side of the sun's depth map, texels, over twice the world's extent (``model.stat.extent``)."""
 
-MOVING_TEXELS = 512
-"""Side of the moving bodies' depth map, texels (about 3 cm each)."""
+MOVING_TEXELS = 256
+"""Side of the moving bodies' depth map, texels (about 5 cm each)."""
 
-MOVING_HALF_WIDTH_M = 8.0
+MOVING_HALF_WIDTH_M = 6.0
 """The moving bodies' map covers this many metres either side of the camera: the rover's own
 shadow and those of the movers near it; a mover farther away casts none."""
 
