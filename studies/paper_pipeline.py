@@ -17,11 +17,14 @@ Usage (from the repository root; renders each world's grid once, into the render
 
     .venv/bin/python -m studies.paper_pipeline
     .venv/bin/python -m studies.paper_pipeline --world-seeds 0 1 --rows reference layer_sharing
+    .venv/bin/python -m studies.paper_pipeline --world-seeds 0 1 2 --rows serpentine_outputs_16 \
+        --merge
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,6 +58,26 @@ ROWS: dict[str, tuple[str, dict[str, Any], dict[str, Any]]] = {
     "outputs_16": ("16 slow features regressed", {"n_outputs": 16}, {}),
     "serpentine": ("training positions in serpentine order", {}, {"order": "serpentine"}),
     "raster": ("training positions in raster order", {}, {"order": "raster"}),
+    "serpentine_outputs_16": (
+        "serpentine order and 16 slow features regressed",
+        {"n_outputs": 16},
+        {"order": "serpentine"},
+    ),
+    "sweeps": (
+        "two sweeps: serpentine along the rows, then along the columns",
+        {},
+        {"order": "sweeps"},
+    ),
+    "sweeps_outputs_16": (
+        "two sweeps and 16 slow features regressed",
+        {"n_outputs": 16},
+        {"order": "sweeps"},
+    ),
+    "sweeps_outputs_32": (
+        "two sweeps and 32 slow features regressed",
+        {"n_outputs": 32},
+        {"order": "sweeps"},
+    ),
 }
 """Row name -> (what changes, SFASettings fields, grid.Config fields)."""
 
@@ -69,6 +92,8 @@ class Args:
     """render cache (None: the default one)"""
     json: Path = ROOT / "published" / "studies" / "paper_pipeline.json"
     """where to write the figures"""
+    merge: bool = False
+    """keep the rows of an existing --json that this run does not run (same world seeds)"""
 
 
 def run_row(name: str, world_seed: int, runs: RunCache) -> dict[str, Any]:
@@ -99,6 +124,15 @@ def main(args: Args) -> dict[str, Any]:
     unknown = [r for r in args.rows if r not in ROWS]
     if unknown:
         raise SystemExit(f"unknown rows {unknown}; expected names of {list(ROWS)}")
+    kept: dict[str, Any] = {}
+    if args.merge and args.json.exists():
+        previous = json.loads(args.json.read_text())
+        if previous["world_seeds"] != list(args.world_seeds):
+            raise SystemExit(
+                f"--merge: {args.json} holds world seeds {previous['world_seeds']}, this run "
+                f"{list(args.world_seeds)}; rows are comparable only on the same worlds"
+            )
+        kept = {k: v for k, v in previous["rows"].items() if k not in args.rows}
     runs = RunCache(args.cache)
     jobs = [(name, seed) for name in args.rows for seed in args.world_seeds]
     found: dict[str, list[dict[str, Any]]] = {name: [] for name in args.rows}
@@ -111,17 +145,19 @@ def main(args: Args) -> dict[str, Any]:
         "protocol": dataclasses.asdict(REFERENCE),
         "reference_sfa": dataclasses.asdict(SFASettings()),
         "world_seeds": list(args.world_seeds),
-        "rows": {
-            name: {
+        "rows": {},
+    }
+    for name in ROWS:  # in the order of ROWS, whichever run they come from
+        if name in found:
+            result["rows"][name] = {
                 "change": ROWS[name][0],
                 "sfa": ROWS[name][1],
                 "protocol": ROWS[name][2],
                 "runs": found[name],
                 **summarise(found[name]),
             }
-            for name in args.rows
-        },
-    }
+        elif name in kept:
+            result["rows"][name] = kept[name]
     write_json_atomic(args.json, result)
     print(f"wrote {args.json}")
     return result

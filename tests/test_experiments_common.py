@@ -161,6 +161,33 @@ def test_unseen_worlds_fit_the_method_on_the_other_world_only():
     np.testing.assert_array_equal(found.method.fitted_on_, views.reshape(-1, 10, 40, 3))
 
 
+def test_two_sweeps_visit_every_training_position_along_the_rows_then_along_the_columns():
+    config = dataclasses.replace(SMALL_GRID, grid=6, n_train=20, n_test=6, order="sweeps")
+    side = np.arange(6, dtype=float)
+    xy = np.array([(x, y) for y in side for x in (side if y % 2 == 0 else side[::-1])])
+    train, _ = grid.select_positions(config, len(xy))
+    sequence = grid.training_sequence(config, train, xy)
+    np.testing.assert_array_equal(sequence[:20], train)  # the rows' sweep: the visiting order
+    columns = xy[sequence[20:]]
+    assert sorted(sequence[20:]) == sorted(train)  # every position once more
+    assert (np.diff(columns[:, 0]) >= 0).all()  # x never goes back: column after column
+    for k, x in enumerate(np.unique(columns[:, 0])):
+        ys = columns[columns[:, 0] == x, 1]
+        assert (np.diff(ys) > 0).all() if k % 2 == 0 else (np.diff(ys) < 0).all()
+    other = dataclasses.replace(config, order="serpentine")
+    np.testing.assert_array_equal(grid.training_sequence(other, train, xy), train)
+
+
+def test_with_two_sweeps_the_method_is_fitted_on_each_training_view_twice():
+    config = dataclasses.replace(SMALL_GRID, order="sweeps")
+    found = grid.score(config, Pixels(), 100, GridRuns(16))
+    data = found.data
+    sequence = grid.training_sequence(config, data.train, data.positions)
+    assert len(sequence) == 2 * len(data.train)
+    views = Rotation(step=4).views(data.panoramas[sequence])[0]
+    np.testing.assert_array_equal(found.method.fitted_on_, views.reshape(-1, 10, 40, 3))
+
+
 @pytest.mark.parametrize(
     ("world_seed", "message"), [(-1, "world_seed must be >= 0, got -1"), (1.5, "must be an int")]
 )

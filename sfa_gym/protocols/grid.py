@@ -48,9 +48,10 @@ __all__ = [
     "score",
     "select_positions",
     "training_panoramas",
+    "training_sequence",
 ]
 
-GridOrder = Literal["hilbert", "serpentine", "raster"]
+GridOrder = Literal["hilbert", "serpentine", "raster", "sweeps"]
 GridEvaluation = Literal["train_test", "paper_splits", "few_labels"]
 
 
@@ -65,7 +66,9 @@ class Config(RenderSettings):
     n_test: int = 196
     """test positions, disjoint from the training positions"""
     order: GridOrder = "hilbert"
-    """order of the training positions: "hilbert", "serpentine" or "raster" """
+    """order of the training positions: "hilbert", "serpentine", "raster", or "sweeps" (a
+    serpentine along the rows, then one along the columns: every training position twice, as
+    the outdoor drive's two sweeps; the grid is rendered in serpentine order)"""
     evaluations: tuple[GridEvaluation, ...] = ("train_test", "paper_splits")
     """evaluations scored per regression, in this order: "train_test" (fitted on the training
     positions), "paper_splits" (the paper's random splits of the test positions), "few_labels"
@@ -124,7 +127,8 @@ def _positions(config: Config) -> Any:
     from sfa_gym.recording.poses import FreeGridPositions
 
     kind = FreeGridPositions if config.free_cells else GridPositions
-    return kind(n=config.grid, seed=config.seed, order=config.order)
+    order = "serpentine" if config.order == "sweeps" else config.order
+    return kind(n=config.grid, seed=config.seed, order=order)
 
 
 def requests(config: Config, world_seed: int) -> dict[str, RunRequest]:
@@ -163,6 +167,22 @@ def select_positions(config: Config, n_positions: int) -> tuple[NDArray, NDArray
     return train, test
 
 
+def training_sequence(
+    config: Config, train: NDArray[np.intp], positions: NDArray[np.float64]
+) -> NDArray[np.intp]:
+    """The indices (into the visiting order) of the panoramas the method is fitted on, in
+    training order: the training positions ``train`` in visiting order; with ``order="sweeps"``
+    followed by the same positions in a serpentine along the columns (x slow, y back and
+    forth), so that each coordinate is the slow one in one sweep. ``positions (L, 2)``: every
+    position's x, y in visiting order."""
+    if config.order != "sweeps":
+        return train
+    x, y = positions[train, 0], positions[train, 1]
+    column = np.unique(np.round(x, 6), return_inverse=True)[1]
+    along = np.where(column % 2 == 0, y, -y)  # up one column, down the next
+    return np.concatenate([train, train[np.lexsort((along, column))]])
+
+
 def training_panoramas(env: Any, config: Config, progress: bool = True) -> NDArray[np.uint8]:
     """The panoramas ``(n_train, H, W, 3)`` of ``config``'s training positions in visiting
     order, each rendered in memory by ``env.reset(options={"pose": pose})``: for scripts that
@@ -180,10 +200,11 @@ def training_panoramas(env: Any, config: Config, progress: bool = True) -> NDArr
     config.validate()
     poses = _positions(config).poses(env)
     train, _ = select_positions(config, len(poses))
+    sequence = training_sequence(config, train, np.asarray(poses)[:, :2])
     return np.stack(
         [
             env.reset(options={"pose": tuple(float(v) for v in poses[i])})[0]
-            for i in tqdm(train, desc="training grid", disable=not progress)
+            for i in tqdm(sequence, desc="training grid", disable=not progress)
         ]
     )
 
@@ -295,11 +316,11 @@ def score(
     data = load(config, world_seed, runs)
     pan, xy, train, test = data.panoramas, data.positions, data.train, data.test
     if fit_world_seed is None or fit_world_seed == world_seed:
-        fit_pan = pan[train]
+        fit_pan = pan[training_sequence(config, train, xy)]
     else:
         check_world_seed("fit_world_seed", fit_world_seed)
         other = load(config, fit_world_seed, runs)
-        fit_pan = other.panoramas[other.train]
+        fit_pan = other.panoramas[training_sequence(config, other.train, other.positions)]
     fitted, f_train, f_test = fitted_features(
         method, fit_pan, config.rotation, pan[train], pan[test], progress=progress
     )
