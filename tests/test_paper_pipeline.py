@@ -48,3 +48,30 @@ def test_unknown_rows_are_refused_by_name(tmp_path):
     with pytest.raises(SystemExit, match="unknown rows \\['nope'\\]"):
         main(Args(rows=("nope",), json=tmp_path / "x.json"))
     assert "reference" in ROWS
+
+
+def test_merge_refuses_a_file_of_other_worlds(tmp_path):
+    import json
+
+    path = tmp_path / "pp.json"
+    path.write_text(json.dumps({"world_seeds": [0, 1, 2], "rows": {}}))
+    with pytest.raises(SystemExit, match=r"holds world seeds \[0, 1, 2\], this run \[5\]"):
+        main(Args(rows=("reference",), world_seeds=(5,), json=path, merge=True))
+
+
+def test_merge_keeps_the_other_rows_in_the_order_of_rows(tmp_path, monkeypatch):
+    import json
+
+    import studies.paper_pipeline as study
+
+    path = tmp_path / "pp.json"
+    kept = {name: {"change": f"kept {name}"} for name in ("raster", "outputs_4")}
+    path.write_text(json.dumps({"world_seeds": [0], "rows": kept}))
+    monkeypatch.setattr(study, "RunCache", lambda cache: None)
+    fake = {"world_seed": 0, "linear": [2.0, 3.0], "quadratic": [1.0, 1.0], "seconds": 0.0}
+    monkeypatch.setattr(study, "run_row", lambda name, seed, runs: fake)
+    result = main(Args(rows=("reference", "raster"), world_seeds=(0,), json=path, merge=True))
+    assert list(result["rows"]) == [n for n in ROWS if n in ("reference", "raster", "outputs_4")]
+    assert result["rows"]["outputs_4"] == kept["outputs_4"]  # not run: kept as it was
+    assert result["rows"]["raster"]["runs"] == [fake]  # run again: replaced
+    assert json.loads(path.read_text())["rows"] == result["rows"]
