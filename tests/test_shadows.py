@@ -5,6 +5,7 @@ pixels whatever the clock showed before)."""
 from __future__ import annotations
 
 import dataclasses
+from contextlib import contextmanager
 
 import mujoco  # noqa: E402  (after sfa_gym.sim: MUJOCO_GL set)
 import numpy as np
@@ -35,8 +36,9 @@ BOX_SCENE = """
 """
 
 
-@pytest.fixture(scope="module")
-def box_shadows():
+@contextmanager
+def _box_scene():
+    """The box scene's model, data, an updated scene and a current offscreen context."""
     model = mujoco.MjModel.from_xml_string(BOX_SCENE)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
@@ -48,13 +50,21 @@ def box_shadows():
     mujoco.mjv_updateScene(
         model, data, mujoco.MjvOption(), None, camera, mujoco.mjtCatBit.mjCAT_ALL, scene
     )
-    shadows = SunShadows(model, texels=256)
-    before = [(c.pos.copy(), c.orthographic, c.frustum_near) for c in scene.camera]
-    shadows.update(data, scene, con)
-    after = [(c.pos.copy(), c.orthographic, c.frustum_near) for c in scene.camera]
-    yield shadows, before, after
-    con.free()
-    context.free()
+    try:
+        yield model, data, scene, con
+    finally:
+        con.free()
+        context.free()
+
+
+@pytest.fixture(scope="module")
+def box_shadows():
+    with _box_scene() as (model, data, scene, con):
+        shadows = SunShadows(model, texels=256)
+        before = [(c.pos.copy(), c.orthographic, c.frustum_near) for c in scene.camera]
+        shadows.update(data, scene, con)
+        after = [(c.pos.copy(), c.orthographic, c.frustum_near) for c in scene.camera]
+        yield shadows, before, after
 
 
 def test_the_box_shadow_falls_where_the_sun_rays_put_it(box_shadows):
@@ -80,24 +90,8 @@ def test_the_box_shadow_falls_where_the_sun_rays_put_it(box_shadows):
 
 @pytest.mark.parametrize(("centre", "near"), [((0.0, 0.0, 1.0), True), ((30.0, 0.0, 1.0), False)])
 def test_a_moving_body_near_the_camera_casts_its_shadow_too(centre, near):
-    model = mujoco.MjModel.from_xml_string(BOX_SCENE)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    context = gl.new_context(256, 256, "the box scene")
-    con = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50)
-    mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, con)
-    scene = mujoco.MjvScene(model, maxgeom=100)
-    mujoco.mjv_updateScene(
-        model,
-        data,
-        mujoco.MjvOption(),
-        None,
-        mujoco.MjvCamera(),
-        mujoco.mjtCatBit.mjCAT_ALL,
-        scene,
-    )
-    shadows = SunShadows(model, texels=256, moving_texels=256)
-    try:
+    with _box_scene() as (model, data, scene, con):
+        shadows = SunShadows(model, texels=256, moving_texels=256)
         shadows.update(data, scene, con, np.array(centre))
         z = 0.01
         # the moving box (x -2..-1, y 2.5..3.5, 2 m high) shades x -4..-1 at its y, if it is
@@ -107,9 +101,6 @@ def test_a_moving_body_near_the_camera_casts_its_shadow_too(centre, near):
         assert shadows.in_shadow(mover).any() == near
         assert not shadows.in_shadow(np.array([(-3.0, 4.0, z), (-4.5, 3.0, z)])).any()
         assert shadows.in_shadow(np.array([(-1.5, 0.0, z)])).all()
-    finally:
-        con.free()
-        context.free()
 
 
 def test_the_depth_map_leaves_the_scene_cameras_as_they_were(box_shadows):
