@@ -3,6 +3,7 @@ accumulator of assets and geoms that draws from one random generator in a fixed 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -38,8 +39,8 @@ class Builder:
         # the day's ground (wet, snow, the lawn's season); None: the ground as built
         self.ground: GroundLook | None = None
         self.colours: dict[str, tuple[float, float, float]] = {}  # material -> mean colour
-        # material -> how it was made (colours, texture), so that a ground look can remake it
-        self._recipes: dict[str, dict[str, Any]] = {}
+        # material -> how it was made (its emitter and arguments), so a ground look can remake it
+        self._recipes: dict[str, tuple[Callable[..., None], dict[str, Any]]] = {}
         self._looked: dict[str, str] = {}  # material -> its version under ``ground``
 
     def textured(self, surface: str, material: str, **extra: Any) -> str:
@@ -58,7 +59,7 @@ class Builder:
         name = f"mat{self.n_materials}"
         self.n_materials += 1
         self.colours[name] = rgb
-        self._recipes[name] = {"rgb": rgb, "alpha": alpha}
+        self._recipes[name] = (self._emit_plain, {"rgb": rgb, "alpha": alpha})
         self._emit_plain(name, rgb, alpha)
         return name
 
@@ -91,7 +92,7 @@ class Builder:
             "marks": surface.marks,
             "repeat": repeat,
         }
-        self._recipes[name] = recipe
+        self._recipes[name] = (self._emit_surface, recipe)
         self._emit_surface(name, **recipe)
         return name
 
@@ -123,14 +124,11 @@ class Builder:
         changed as ``surface``'s, its finish the look's; made once, then shared."""
         if material not in self._looked:
             name = f"{material}_{look.ground}"
-            recipe = dict(self._recipes[material])
+            emit, recipe = self._recipes[material]
+            recipe = dict(recipe)
             for key in ("rgb", "rgb1", "rgb2", "mark_rgb"):
                 if key in recipe:
                     recipe[key] = tuple(float(v) for v in look.colour(surface, recipe[key]))
-            finish = look.finish(surface)
-            if "rgb" in recipe:
-                self._emit_plain(name, recipe["rgb"], recipe["alpha"], finish)
-            else:
-                self._emit_surface(name, **recipe, finish=finish)
+            emit(name, **recipe, finish=look.finish(surface))
             self._looked[material] = name
         return self._looked[material]

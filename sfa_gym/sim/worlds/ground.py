@@ -40,6 +40,8 @@ from typing import Any, Literal, get_args
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sfa_gym.sim.worlds.textures import noise
+
 __all__ = [
     "GROUNDS",
     "GROUND_SURFACES",
@@ -149,8 +151,6 @@ class GroundLook:
         snow's drifts (tileable ``1/f`` noise around the surface's mean cover)."""
         if self.ground != "snow":
             return self.colour(surface, image)
-        from sfa_gym.sim.worlds.textures import noise
-
         mean = _SNOW_COVER[surface]
         cover = np.clip(mean + _SNOW_PATCHINESS * noise(rng, image.shape[0]), 0.0, 1.0)
         return self.colour(surface, image, cover)
