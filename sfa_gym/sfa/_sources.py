@@ -42,7 +42,7 @@ from sfa_gym.sfa._moments import Moments, sequence_block
 from sfa_gym.sfa._parallel import ordered_map
 from sfa_gym.sfa._periodic import plan_weighted_gram
 from sfa_gym.sfa._weights import check_weight_sharing
-from sfa_gym.sfa.expansion import quadratic_expand
+from sfa_gym.sfa.expansion import n_quadratic_features, quadratic_expand
 from sfa_gym.sfa.spec import LayerSpec
 
 __all__ = [
@@ -58,21 +58,64 @@ __all__ = [
     "shortcut_obstacle",
 ]
 
-Featurize = Callable[[NDArray[np.floating]], NDArray[np.floating]]
-"""Node inputs ``(n, R, C, F)`` -> the features whose statistics are gathered ``(E, n, R, C)``."""
+Featurize = Callable[..., NDArray[np.floating]]
+"""Node inputs ``(n, R, C, F)`` -> the features whose statistics are gathered ``(E, n, R, C)``;
+``sharing=`` (the rotation source) lays them out so that :func:`groups` need not copy them.
+
+Layouts and bits: a product's round-off depends on the layout its operand has (BLAS sums a
+transposed operand in another order), so features are formed in :data:`GROUP_ORDER` only where
+:func:`groups` would otherwise copy them into that very layout: the statistics are the same to
+the bit, without the copies of the features and of their differences."""
+
+GROUP_ORDER = {"layer": (0, 1, 2, 3), "rows": (2, 0, 1, 3)}
+"""Per weight sharing, the memory order of the axes of features ``(F, n, R, C)`` in which
+:func:`groups` is a view with the samples of each group contiguous (C order)."""
+
 
 PARTIAL_BYTES = 256 << 20
 """Largest statistics (all groups) copied per chunk so that chunks run in parallel."""
 
 
-def features_first(x: NDArray[np.floating]) -> NDArray[np.floating]:
-    """Node inputs ``(n, R, C, F)`` as a feature-major view ``(F, n, R, C)``."""
-    return np.moveaxis(x, -1, 0)
+def grouped_empty(
+    shape: tuple[int, int, int, int], dtype: type[np.floating], sharing: str
+) -> NDArray[np.floating]:
+    """An uninitialised array of features ``(F, n, R, C)`` laid out in :data:`GROUP_ORDER`."""
+    order = GROUP_ORDER[sharing]
+    return np.empty([shape[i] for i in order], dtype=dtype).transpose(np.argsort(order))
 
 
-def reduce_and_expand(reduce: Affine, x: NDArray[np.floating]) -> NDArray[np.floating]:
-    """Expanded linear-SFA outputs of node inputs ``(n, R, C, F)``: ``(E, n, R, C)``."""
-    return quadratic_expand(reduce.apply(x), axis=0)
+def in_group_order(x: NDArray[np.floating], sharing: str) -> bool:
+    """Whether features ``x`` ``(F, n, R, C)`` are laid out in :data:`GROUP_ORDER`."""
+    return x.transpose(GROUP_ORDER[sharing]).flags.c_contiguous
+
+
+def groups_copy(x: NDArray[np.floating], sharing: str) -> bool:
+    """Whether :func:`groups` has to copy ``x``: its sample axes do not merge in place."""
+    axes = (1, 2, 3) if sharing == "layer" else (1, 3)
+    dims = [(x.shape[i], x.strides[i]) for i in axes if x.shape[i] != 1]
+    return any(outer != n * inner for (_, outer), (n, inner) in zip(dims, dims[1:]))
+
+
+def features_first(x: NDArray[np.floating], sharing: str | None = None) -> NDArray[np.floating]:
+    """Node inputs ``(n, R, C, F)`` as features ``(F, n, R, C)``: a view, or with ``sharing``,
+    where :func:`groups` would copy that view, a copy in :data:`GROUP_ORDER`."""
+    features = np.moveaxis(x, -1, 0)
+    if sharing is None or not groups_copy(features, sharing):
+        return features
+    out = grouped_empty(features.shape, x.dtype, sharing)
+    np.copyto(out, features)
+    return out
+
+
+def reduce_and_expand(
+    reduce: Affine, x: NDArray[np.floating], sharing: str | None = None
+) -> NDArray[np.floating]:
+    """Expanded linear-SFA outputs of node inputs ``(n, R, C, F)``: ``(E, n, R, C)``, with
+    ``sharing`` in :data:`GROUP_ORDER` (C order for one node per layer)."""
+    y = reduce.apply(x)
+    shape = (n_quadratic_features(y.shape[0]), *y.shape[1:])
+    out = None if sharing is None else grouped_empty(shape, y.dtype, sharing)
+    return quadratic_expand(y, out=out, axis=0)
 
 
 def groups(x: NDArray[np.floating], sharing: str) -> NDArray[np.floating]:
@@ -381,7 +424,7 @@ class DenseRotationSource(Source):
         def work(chunk: tuple[int, int], into: Moments) -> tuple[Moments, Any, Any]:
             l0, l1 = chunk
             a = self.layer_input(job, l0, l1)
-            x = featurize(self.node_inputs(li, spec, grid, a))
+            x = featurize(self.node_inputs(li, spec, grid, a), sharing=sharing)
             f, n_l, r, _ = x.shape  # (F, L, R, n1)
             # view k = location * K + k is the time index of every node of that view
             base = (np.arange(l0, l1, dtype=np.float64) * n_rot)[:, None, None]
@@ -396,7 +439,7 @@ class DenseRotationSource(Source):
             # consecutive views: dense column o -> following[o], weighted by how many node
             # pairs; ``x[..., following] - x`` formed from two slices (a gather is slower)
             if plans is None:
-                d = np.empty_like(x)
+                d = np.empty_like(x)  # x's layout: groups(d) is a view too
                 np.subtract(x[..., m:], x[..., : n1 - m], out=d[..., : n1 - m])
                 np.subtract(x[..., :m], x[..., n1 - m :], out=d[..., n1 - m :])
                 into.add_differences(groups(d, sharing), np.broadcast_to(pairs, shape).ravel())
@@ -408,7 +451,12 @@ class DenseRotationSource(Source):
                 into.add_difference_moments(outer[None], n_l * r * float(pairs.sum()))
             # from the last view of one location to the first view of the next
             if n_l > 1:
-                d = take_cols(x[:, 1:], first) - take_cols(x[:, :-1], last)
+                pair = take_cols(x[:, 1:], first), take_cols(x[:, :-1], last)
+                if in_group_order(x, sharing):
+                    d = grouped_empty(pair[0].shape, x.dtype, sharing)
+                    np.subtract(*pair, out=d)
+                else:
+                    d = pair[0] - pair[1]
                 into.add_differences(groups(d, sharing))
             # copies: a view would keep the whole chunk alive until it is merged
             return into, take_cols(x[:, :1], first).copy(), take_cols(x[:, -1:], last).copy()
