@@ -77,3 +77,15 @@ def test_a_view_that_groups_in_place_is_left_as_it_is():
     assert np.shares_memory(features, inputs)
     assert not sources.groups_copy(features, "layer")
     assert sources.groups_copy(np.moveaxis(inputs, -1, 0), "rows")
+
+
+def test_a_row_shared_layer_reads_each_row_of_the_patch_view_as_its_node_inputs():
+    panoramas = synthetic_panoramas(17, 12, 40, seed=3, n_keyframes=5)
+    model = _fit(panoramas, "rows")
+    a = panoramas[:4].astype(np.float32)
+    for p in model.layer_params_:
+        assert p.reduce.row_shared
+        # every node's output from the layer's materialised node inputs, and from the view
+        whole = p.nodes(p.patches(a), clip=None)
+        np.testing.assert_array_equal(p.forward(a, clip=None), whole)
+        a = whole

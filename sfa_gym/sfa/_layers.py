@@ -29,6 +29,7 @@ def extract_patches(
     stride: tuple[int, int],
     n_cols: int,
     col_dilation: int = 1,
+    copy: bool = True,
 ) -> NDArray[np.floating]:
     """Node input vectors of a layer.
 
@@ -40,6 +41,8 @@ def extract_patches(
             the input wrap around (a non-wrapping layer never reaches them).
         col_dilation: spacing of the field's columns (1 for a normal layer; the dense
             rotation grid uses the stride product of the layers below).
+        copy: False: the read-only strided view ``(N, R, n_cols, fr, fc, D)`` of ``a`` (or of
+            its wrapped copy) instead, for a caller that copies parts of it.
 
     Returns:
         ``(N, R, n_cols, fr * fc * D)`` C-contiguous, features in (row, col, channel) order.
@@ -60,7 +63,12 @@ def extract_patches(
         strides=(s_n, sr * s_r, sc * s_c, s_r, col_dilation * s_c, s_d),
         writeable=False,
     )
-    return np.ascontiguousarray(view).reshape(n, rows, n_cols, fr * fc * d)
+    return node_inputs(view) if copy else view
+
+
+def node_inputs(view: NDArray[np.floating]) -> NDArray[np.floating]:
+    """A patch view ``(N, R, C, fr, fc, D)`` as C-contiguous node inputs ``(N, R, C, F)``."""
+    return np.ascontiguousarray(view).reshape(*view.shape[:3], -1)
 
 
 @dataclass
@@ -224,7 +232,14 @@ class LayerParams:
         By default the layer's own grid. The rotation shortcut runs a layer on a dense periodic
         grid instead (``n_cols`` nodes, ``col_stride`` and ``col_dilation`` in input columns).
         """
-        return self.nodes(self.patches(a, n_cols, col_stride, col_dilation), clip)
+        if not self.reduce.row_shared:
+            return self.nodes(self.patches(a, n_cols, col_stride, col_dilation), clip)
+        # each row's node inputs copied once from the patch view, rather than all rows and
+        # then each row again (the values, and so the outputs, are the same)
+        view = self.patches(a, n_cols, col_stride, col_dilation, copy=False)
+        rows = [self._shared_nodes(node_inputs(view[:, r : r + 1]), clip, r) for r in
+                range(view.shape[1])]  # fmt: skip
+        return np.concatenate(rows, axis=1)
 
     def patches(
         self,
@@ -232,9 +247,11 @@ class LayerParams:
         n_cols: int | None = None,
         col_stride: int | None = None,
         col_dilation: int = 1,
+        copy: bool = True,
     ) -> NDArray[np.floating]:
-        """Node inputs ``(N, R, n_cols, F)`` (see :meth:`forward` for the arguments)."""
-        return layer_patches(self.spec, self.grid, a, n_cols, col_stride, col_dilation)
+        """Node inputs ``(N, R, n_cols, F)`` (see :meth:`forward` for the arguments; ``copy``:
+        :func:`extract_patches`)."""
+        return layer_patches(self.spec, self.grid, a, n_cols, col_stride, col_dilation, copy)
 
 
 def _node(
@@ -252,6 +269,7 @@ def layer_patches(
     n_cols: int | None = None,
     col_stride: int | None = None,
     col_dilation: int = 1,
+    copy: bool = True,
 ) -> NDArray[np.floating]:
     """Node inputs of a layer with spec ``spec`` and view grid ``grid`` (see ``forward``)."""
     return extract_patches(
@@ -260,4 +278,5 @@ def layer_patches(
         (spec.stride[0], spec.stride[1] if col_stride is None else col_stride),
         grid[1] if n_cols is None else n_cols,
         col_dilation,
+        copy,
     )
