@@ -30,6 +30,7 @@ def _fit(panoramas: np.ndarray, sharing: str) -> HierarchicalSFA:
 def test_group_order_changes_no_bit_of_the_model(monkeypatch, sharing):
     panoramas = synthetic_panoramas(17, 12, 40, seed=3, n_keyframes=5)
     ordered = _fit(panoramas, sharing)
+
     # the features in their natural layout: groups() copies them before every product
     def natural(x: np.ndarray, sharing: str | None = None) -> np.ndarray:
         return np.moveaxis(x, -1, 0)

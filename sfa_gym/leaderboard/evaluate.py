@@ -16,7 +16,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from threadpoolctl import threadpool_limits
@@ -65,6 +65,9 @@ class Task:
             on (None: its number of CPUs, as Ray runs one task per CPU): the default memory
             limit is three quarters of the machine's memory divided among them, so that
             runaway plug-ins of all of them together cannot exhaust it.
+        also_score: grid tracks: evaluations scored in the same run besides the track's own
+            (other tracks' tasks, :func:`~sfa_gym.protocols.grid.scored_together`); their task
+            scores go to the outcome's ``shared``, the track's own scores are unchanged.
     """
 
     track_path: str
@@ -78,6 +81,7 @@ class Task:
     time_limits: Mapping[str, float] = field(default_factory=dict)
     memory_limit_mb: int | None = None
     concurrent_tasks: int | None = 1
+    also_score: tuple[str, ...] = ()
 
 
 def task_limits(track: Track, task: Task) -> Limits:
@@ -91,11 +95,15 @@ def task_limits(track: Track, task: Task) -> Limits:
 
 def _protocol_scores(
     track: Track, task: Task, method: Any, cache: RunCache, controllers: list[Any], limits: Any
-) -> dict[str, Any]:
+) -> tuple[dict[str, Any], dict[str, Any]]:
     """The task's scores from its protocol (:data:`~sfa_gym.leaderboard.tracks.PROTOCOLS`):
     ``score`` with the track's ``Config`` and the method's own regression; on
-    ``unseen_worlds`` the world the method is fitted on, on navigation tracks the controller."""
+    ``unseen_worlds`` the world the method is fitted on, on navigation tracks the controller.
+    Also the task scores of each of ``task.also_score``, scored in the same run."""
     protocol = protocol_module(track.evaluation)
+    config = track.config(task.quick)
+    if task.also_score:
+        config = replace(config, evaluations=(*config.evaluations, *task.also_score))
     other: dict[str, Any] = {}
     if track.fit_world_seeds:
         other["fit_world_seed"] = track.fit_world_seed(task.world_seed)
@@ -103,8 +111,8 @@ def _protocol_scores(
         other["controller"] = _controller(
             task.controller_path, task.controller_args, controllers, [cache.root], limits
         )
-    found = protocol.score(track.config(task.quick), method, task.world_seed, cache, **other)
-    return found.task_scores()
+    found = protocol.score(config, method, task.world_seed, cache, **other)
+    return found.task_scores(), {e: found.task_scores(e) for e in task.also_score}
 
 
 def _controller(
@@ -172,7 +180,7 @@ def _run_task(task: Task) -> dict[str, Any]:
         # and a Ray worker starts single-threaded while a local process does not, so the same
         # task would otherwise differ in the last digits between backends.
         with threadpool_limits(limits=1):
-            scores = _protocol_scores(track, task, method, cache, workers, limits)
+            scores, shared = _protocol_scores(track, task, method, cache, workers, limits)
     finally:
         for plugin in workers:
             plugin.close()
@@ -182,7 +190,7 @@ def _run_task(task: Task) -> dict[str, Any]:
         "scores": significant(scores),
         "seconds": round(time.perf_counter() - started, 2),
         "isolation": isolation(),
-    }
+    } | ({"shared": significant(shared)} if shared else {})
 
 
 def significant(value: Any, digits: int = 10) -> Any:

@@ -15,7 +15,7 @@ import json
 import os
 import sys
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -158,6 +158,9 @@ def run_sweep(
             todo.append(i)
             if why:
                 say(f"{p.what}: computed again ({why})")
+    joined = _scored_together(tracks, planned, quick, todo)
+    covering.update({k: by for k, (by, _) in joined.items()})
+    todo = [i for i in todo if i not in joined]
     if finished:
         say(
             f"{len(finished)} of {len(planned)} task(s) finished before (files under "
@@ -190,7 +193,8 @@ def run_sweep(
             if all(k in finished for k in pairs[p.pair]):
                 write_pair(p.pair)
         for k in (k for k, by in covering.items() if by == i and k not in finished):
-            derived = _covered_outcome(tracks, planned, quick, k, i, outcome)
+            shared = joined[k][1] if k in joined else None
+            derived = _covered_outcome(tracks, planned, quick, k, i, outcome, shared)
             record(k, derived, {**provenance, "scored_with": p.what})
 
     for i, by in covering.items():  # covered by a task finished in an earlier sitting
@@ -201,7 +205,10 @@ def run_sweep(
     for pair, members in pairs.items():
         if all(i in finished for i in members):
             write_pair(pair)
-    tasks = [planned[i].task for i in todo]
+    also = {i: [] for i in todo}
+    for by, evaluation in joined.values():
+        also[by].append(evaluation)
+    tasks = [replace(planned[i].task, also_score=tuple(also[i])) for i in todo]
     try:
         for j, outcome in run_each(tasks, backend, address=address, num_cpus=num_cpus):
             record(todo[j], outcome, task_provenance(backend, commit))
@@ -250,6 +257,35 @@ def _covering_tasks(
     return covering
 
 
+def _scored_together(
+    tracks: Sequence[Track], planned: list[_Planned], quick: bool, todo: list[int]
+) -> dict[int, tuple[int, str]]:
+    """Tasks to be scored within another task still to run, each with that task and the
+    evaluation it adds there: the same method, world seed and world fitted on, on tracks whose
+    protocol scores both settings in one run (``scored_together``, :mod:`sfa_gym.protocols.
+    grid`: the paper's splits, training -> test and few labels fit a method once). Finished
+    tasks are left as they are: a task that ran alone in an earlier sitting is not joined."""
+    runners: dict[tuple[Any, ...], list[int]] = {}
+    joined: dict[int, tuple[int, str]] = {}
+    for i in todo:
+        track = tracks[planned[i].pair[0]]
+        together = getattr(protocol_module(track.evaluation), "scored_together", None)
+        if track.evaluation not in PROTOCOLS or together is None:
+            continue
+        seed = planned[i].task.world_seed
+        key = (planned[i].pair[1], seed, track.fit_world_seed(seed), PROTOCOLS[track.evaluation])
+        config = track.config(quick)
+        for by in runners.setdefault(key, []):
+            runner = tracks[planned[by].pair[0]].config(quick)
+            evaluations = {*runner.evaluations, *(e for b, e in joined.values() if b == by)}
+            if together(runner, config) and config.evaluations[0] not in evaluations:
+                joined[i] = (by, config.evaluations[0])
+                break
+        else:
+            runners[key].append(i)
+    return joined
+
+
 def _covered_outcome(
     tracks: Sequence[Track],
     planned: list[_Planned],
@@ -257,15 +293,20 @@ def _covered_outcome(
     i: int,
     by: int,
     outcome: dict[str, Any] | TaskFailure,
+    shared: str | None = None,
 ) -> dict[str, Any] | TaskFailure:
     """Task ``i``'s outcome from that of the task ``by`` that covers it: its part of the scores
-    (it costs no time of its own), or a failure naming the failed task."""
+    (its evaluation ``shared`` of the outcome's ``shared`` scores, for a task scored together
+    with ``by``), or a failure naming the failed task; it costs no time of its own."""
     if isinstance(outcome, TaskFailure):
         return TaskFailure(outcome.error_type, f"scored with {planned[by].what}: {outcome}")
+    own = {k: v for k, v in outcome.items() if k != "shared"}
+    if shared is not None:
+        return {**own, "scores": outcome["shared"][shared], "seconds": 0.0, "phases": {}}
     track = tracks[planned[i].pair[0]]
     module = protocol_module(track.evaluation)
     scores = module.covered_scores(outcome["scores"], track.config(quick), outcome["world_seed"])
-    return {**outcome, "scores": significant(scores), "seconds": 0.0, "phases": {}}
+    return {**own, "scores": significant(scores), "seconds": 0.0, "phases": {}}
 
 
 def concurrent_tasks(backend: Backend, address: str | None, num_cpus: int | None) -> int | None:
@@ -332,7 +373,8 @@ def _write_pair(
         track=track,
         quick=quick,
         method=method,
-        tasks=[r["output"] for r in records],
+        # what a task scored for others joined to it is theirs (their own files hold it)
+        tasks=[{k: v for k, v in r["output"].items() if k != "shared"} for r in records],
         higher_is_better=HIGHER_IS_BETTER[track.kind],
         backend="+".join(sorted({r["provenance"]["backend"] for r in records})),
         seconds=sum(r["output"]["seconds"] for r in records),

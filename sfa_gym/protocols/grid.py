@@ -21,7 +21,7 @@ The leaderboard's tracks ``paper_sim_parity``, ``train_test``, ``few_labels`` an
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -46,6 +46,7 @@ __all__ = [
     "load",
     "requests",
     "score",
+    "scored_together",
     "select_positions",
     "training_panoramas",
     "training_sequence",
@@ -263,13 +264,16 @@ class Scores(MethodScores):
     config: Config
     data: GridData
 
-    def task_scores(self) -> dict[str, Any]:
+    def task_scores(self, evaluation: str | None = None) -> dict[str, Any]:
         """A leaderboard task's scores (JSON types): with the first regression, ``score`` is
-        the mean over x and y of the MAE in % of the first evaluation of the config, with its
-        parts (``mae_percent``, or ``labels_<n>`` per number of labels)."""
+        the mean over x and y of the MAE in % of ``evaluation`` (default: the config's first),
+        with its parts (``mae_percent``, or ``labels_<n>`` per number of labels)."""
         name, found = self.first()
         out: dict[str, Any] = {"regressor": name, "n_features": self.invariance["n_features"]}
-        evaluation = self.config.evaluations[0]
+        evaluation = evaluation or self.config.evaluations[0]
+        if evaluation not in self.config.evaluations:
+            scored = list(self.config.evaluations)
+            raise ValueError(f"evaluation {evaluation!r} was not scored (scored: {scored})")
         if evaluation == "few_labels":
             per_count = [_mean_percent(m) for m in found.few_labels.values()]
             for n_labels, value in zip(found.few_labels, per_count, strict=True):
@@ -280,6 +284,14 @@ class Scores(MethodScores):
         out["score"] = _mean_percent(result)
         out["mae_percent"] = result.mae_percent.tolist()
         return out
+
+
+def scored_together(config: Config, other: Config) -> bool:
+    """Whether one run can score ``other``'s evaluations beside ``config``'s: the settings are
+    the same but for ``evaluations``. The fit, the features and each evaluation (seeded on its
+    own) do not depend on which other evaluations are scored, so a task of the paper's splits,
+    one of training -> test and one of few labels on the same world fit the method once."""
+    return replace(config, evaluations=other.evaluations) == other
 
 
 def _mean_percent(result: Any) -> float:

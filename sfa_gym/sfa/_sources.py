@@ -93,7 +93,7 @@ def groups_copy(x: NDArray[np.floating], sharing: str) -> bool:
     """Whether :func:`groups` has to copy ``x``: its sample axes do not merge in place."""
     axes = (1, 2, 3) if sharing == "layer" else (1, 3)
     dims = [(x.shape[i], x.strides[i]) for i in axes if x.shape[i] != 1]
-    return any(outer != n * inner for (_, outer), (n, inner) in zip(dims, dims[1:]))
+    return any(outer != n * inner for (_, outer), (n, inner) in zip(dims, dims[1:], strict=False))
 
 
 def features_first(x: NDArray[np.floating], sharing: str | None = None) -> NDArray[np.floating]:
