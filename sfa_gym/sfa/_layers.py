@@ -164,13 +164,17 @@ class LayerParams:
         return (self.expand or self.reduce).out_dim
 
     def nodes(self, x: NDArray[np.floating], clip: float | None) -> NDArray[np.floating]:
-        """Node outputs for node inputs ``x`` ``(N, R, C, F)`` -> ``(N, R, C, out_dim)``."""
-        if self.reduce.shared and x.flags.c_contiguous:
-            return self._shared_nodes(x, clip)
+        """Node outputs for node inputs ``x`` ``(N, R, C, F)``, or their patch view ``(N, R, C,
+        fr, fc, D)`` (:func:`extract_patches` with ``copy=False``), -> ``(N, R, C, out_dim)``."""
         if self.reduce.row_shared:
-            rows = [self._shared_nodes(np.ascontiguousarray(x[:, r : r + 1]), clip, r) for r in
+            # each row's node inputs contiguous; from a patch view they are copied only once
+            rows = [self._shared_nodes(node_inputs(x[:, r : r + 1]), clip, r) for r in
                     range(x.shape[1])]  # fmt: skip
             return np.concatenate(rows, axis=1)
+        if x.ndim == 6:
+            x = node_inputs(x)
+        if self.reduce.shared and x.flags.c_contiguous:
+            return self._shared_nodes(x, clip)
         y = self.reduce.apply(x)
         if self.expand is not None:
             y = self.expand.apply(quadratic_expand(y, axis=0), features_first=True)
@@ -232,14 +236,7 @@ class LayerParams:
         By default the layer's own grid. The rotation shortcut runs a layer on a dense periodic
         grid instead (``n_cols`` nodes, ``col_stride`` and ``col_dilation`` in input columns).
         """
-        if not self.reduce.row_shared:
-            return self.nodes(self.patches(a, n_cols, col_stride, col_dilation), clip)
-        # each row's node inputs copied once from the patch view, rather than all rows and
-        # then each row again (the values, and so the outputs, are the same)
-        view = self.patches(a, n_cols, col_stride, col_dilation, copy=False)
-        rows = [self._shared_nodes(node_inputs(view[:, r : r + 1]), clip, r) for r in
-                range(view.shape[1])]  # fmt: skip
-        return np.concatenate(rows, axis=1)
+        return self.nodes(self.patches(a, n_cols, col_stride, col_dilation, copy=False), clip)
 
     def patches(
         self,
