@@ -269,8 +269,10 @@ def _scored_together(
     joined: dict[int, tuple[int, str]] = {}
     for i in todo:
         track = tracks[planned[i].pair[0]]
+        if track.evaluation not in PROTOCOLS:
+            continue
         together = getattr(protocol_module(track.evaluation), "scored_together", None)
-        if track.evaluation not in PROTOCOLS or together is None:
+        if together is None:
             continue
         seed = planned[i].task.world_seed
         key = (planned[i].pair[1], seed, track.fit_world_seed(seed), PROTOCOLS[track.evaluation])
