@@ -7,6 +7,7 @@ import warnings
 
 import numpy as np
 import pytest
+from test_sfa_heap import assert_same_layers
 
 import sfa_gym.sfa._sources as sources
 import sfa_gym.sfa._training as training
@@ -43,14 +44,7 @@ def test_group_order_changes_no_bit_of_the_model(monkeypatch, sharing):
         training, "reduce_and_expand", lambda r, x, sharing=None: plain_expand(r, x)
     )
     plain = _fit(panoramas, sharing)
-    for a, b in zip(ordered.layer_params_, plain.layer_params_, strict=True):
-        for part in ("reduce", "expand"):
-            x, y = getattr(a, part), getattr(b, part)
-            assert (x is None) == (y is None)
-            if x is not None:
-                np.testing.assert_array_equal(x.weight, y.weight)
-                np.testing.assert_array_equal(x.bias, y.bias)
-                np.testing.assert_array_equal(x.delta, y.delta)
+    assert_same_layers(ordered, plain)
 
 
 @pytest.mark.parametrize("sharing", ["layer", "rows"])
