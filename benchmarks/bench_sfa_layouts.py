@@ -57,7 +57,7 @@ class Args:
 @contextmanager
 def previous_layouts() -> Iterator[None]:
     """The code before: natural layouts (groups() copies), each row's inputs copied twice."""
-    expand, forward = sources.reduce_and_expand, LayerParams.forward
+    expand = sources.reduce_and_expand
 
     def natural(x: np.ndarray, sharing: str | None = None) -> np.ndarray:
         return np.moveaxis(x, -1, 0)
@@ -65,20 +65,20 @@ def previous_layouts() -> Iterator[None]:
     def expanded(reduce: Any, x: np.ndarray, sharing: str | None = None) -> np.ndarray:
         return expand(reduce, x)
 
-    def nodes_of_patches(self: LayerParams, a: np.ndarray, clip: Any, *geometry: Any) -> Any:
-        return self.nodes(self.patches(a, *geometry), clip)
+    def forward(
+        self: LayerParams, a: np.ndarray, clip: Any, n_cols=None, col_stride=None, col_dilation=1
+    ) -> np.ndarray:
+        return self.nodes(self.patches(a, n_cols, col_stride, col_dilation), clip)
 
     saved = [
         (sources, "features_first", sources.features_first),
         (training, "features_first", training.features_first),
         (training, "reduce_and_expand", training.reduce_and_expand),
-        (LayerParams, "forward", forward),
+        (LayerParams, "forward", LayerParams.forward),
     ]
     sources.features_first = training.features_first = natural
     training.reduce_and_expand = expanded
-    LayerParams.forward = lambda self, a, clip, n_cols=None, col_stride=None, col_dilation=1: (
-        nodes_of_patches(self, a, clip, n_cols, col_stride, col_dilation)
-    )
+    LayerParams.forward = forward
     try:
         yield
     finally:

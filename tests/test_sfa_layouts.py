@@ -10,7 +10,7 @@ import pytest
 from test_sfa_heap import assert_same_layers
 
 import sfa_gym.sfa._sources as sources
-import sfa_gym.sfa._training as training
+from benchmarks.bench_sfa_layouts import previous_layouts
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
 from sfa_gym.sfa._layers import Affine
 from sfa_gym.sfa.synthetic import synthetic_panoramas
@@ -28,22 +28,14 @@ def _fit(panoramas: np.ndarray, sharing: str) -> HierarchicalSFA:
 
 
 @pytest.mark.parametrize("sharing", ["layer", "rows"])
-def test_group_order_changes_no_bit_of_the_model(monkeypatch, sharing):
+def test_group_order_changes_no_bit_of_the_model(sharing):
     panoramas = synthetic_panoramas(17, 12, 40, seed=3, n_keyframes=5)
     ordered = _fit(panoramas, sharing)
 
-    # the features in their natural layout: groups() copies them before every product
-    def natural(x: np.ndarray, sharing: str | None = None) -> np.ndarray:
-        return np.moveaxis(x, -1, 0)
-
-    # (both names: the source recognises the linear pass by this function)
-    monkeypatch.setattr(sources, "features_first", natural)
-    monkeypatch.setattr(training, "features_first", natural)
-    plain_expand = sources.reduce_and_expand
-    monkeypatch.setattr(
-        training, "reduce_and_expand", lambda r, x, sharing=None: plain_expand(r, x)
-    )
-    plain = _fit(panoramas, sharing)
+    # the code before: the features in their natural layout, groups() copying them before
+    # every product, each row's node inputs copied twice
+    with previous_layouts():
+        plain = _fit(panoramas, sharing)
     assert_same_layers(ordered, plain)
 
 
