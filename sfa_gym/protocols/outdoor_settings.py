@@ -87,6 +87,9 @@ class Config:
     shadows: bool = False
     """the sun's cast shadows, moving with the clock (sfa_gym.sim.camera.shadows; about twice
     the rendering time)"""
+    cloud_cover: float | None = None
+    """clouds drawn into the sky covering this fraction of it, for each run's start hour and
+    day (sfa_gym.sim.worlds.sky); None: the plain gradient sky"""
     day: int | None = None
     """the weather and mover day (clouds, schedules) of the drive and of every test run but
     other_day; None: the world's own (day 0)"""
@@ -192,6 +195,9 @@ class Config:
         for name in (*switches, "shadows"):
             if not isinstance(getattr(self, name), bool):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        cover = self.cloud_cover
+        if cover is not None and not (is_number(cover) and 0.0 <= cover <= 1.0):
+            raise ValueError(f"cloud_cover must be None or lie in [0, 1], got {cover!r}")
         self._sensor_spec()  # the sensor's own check of vignetting
         if (self.white_balance or self.vignetting) and not self.sensor:
             raise ValueError("white_balance and vignetting are effects of the sensor: sensor=True")
@@ -316,7 +322,7 @@ class Config:
         declared = load_world_spec("paper_outdoor").dynamics
         change = {
             name: getattr(self, name)
-            for name in ("day_of_year", "latitude_deg", "day")
+            for name in ("day_of_year", "latitude_deg", "day", "cloud_cover")
             if getattr(self, name) is not None
         }
         switches = ("seasons", "grass_seasons", "shadows")
@@ -406,9 +412,10 @@ class Config:
         )
 
     def _dated(self) -> dict[str, Any]:
-        """``{"dynamics": ...}`` when a date or day is given or shadows are on, else nothing:
-        the env's own dynamics (the runs of before, under the same cache keys)."""
-        dated = any(getattr(self, n) is not None for n in ("day_of_year", "latitude_deg", "day"))
+        """``{"dynamics": ...}`` when a date, day or cloud cover is given or shadows are on,
+        else nothing: the env's own dynamics (the runs of before, under the same cache keys)."""
+        given = ("day_of_year", "latitude_deg", "day", "cloud_cover")
+        dated = any(getattr(self, n) is not None for n in given)
         return {"dynamics": self.world_dynamics()} if dated or self.shadows else {}
 
 

@@ -167,7 +167,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
       world's or the default ``DynamicsSpec``; or a ``DynamicsSpec``.
     * ``clock``, ``clouds``, ``movers``, ``shadows`` (None): switch one effect of the dynamics
       on or off (None keeps the spec's); ``start_hour`` (None): the time of day the clock
-      starts at.
+      starts at; ``cloud_cover`` (None): clouds drawn into the sky covering this fraction of
+      it (None keeps the spec's, by default the plain gradient sky;
+      :mod:`sfa_gym.sim.worlds.sky`).
     * ``sensor`` (None): the camera's auto-exposure and noise: None or False for none, True
       for the default ``SensorSpec``, or a ``SensorSpec`` (which also switches on auto white
       balance and a mirror camera's vignetting); ``auto_exposure`` and ``sensor_noise``
@@ -229,6 +231,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         movers: bool | None = None,
         shadows: bool | None = None,
         start_hour: float | None = None,
+        cloud_cover: float | None = None,
         sensor: bool | SensorSpec | None = None,
         auto_exposure: bool | None = None,
         sensor_noise: bool | None = None,
@@ -278,6 +281,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
             dynamics,
             {"clock": clock, "clouds": clouds, "movers": movers, "shadows": shadows},
             start_hour,
+            cloud_cover,
         )
         self.sensor = resolve_sensor(sensor, auto_exposure, sensor_noise)
         built = build_world(

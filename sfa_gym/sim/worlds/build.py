@@ -21,7 +21,9 @@ from sfa_gym.sim.worlds.layout import WorldLayout
 from sfa_gym.sim.worlds.outdoor import build_outdoor, outer_reach
 from sfa_gym.sim.worlds.rearrange import rearranged_for
 from sfa_gym.sim.worlds.seasons import foliage_for
+from sfa_gym.sim.worlds.sky import sky_faces, skybox_mjcf
 from sfa_gym.sim.worlds.spec import ColourRange, WorldSpec
+from sfa_gym.sim.worlds.textures import png_bytes
 from sfa_gym.sim.worlds.texturing import Texturer
 
 
@@ -392,15 +394,24 @@ def build_world(
     b = _Builder(spec, rng)
     if spec.textures is not None:
         b.textures = Texturer(spec.textures, int(world_seed))
+    day = spec.dynamics if dynamics is None else dynamics
     # the day's ground (wet, snow, the lawn's season); None: as built
-    b.ground = ground_look_for(spec.dynamics if dynamics is None else dynamics)
+    b.ground = ground_look_for(day)
     arena = spec.arena
     hx, hy = arena.size[0] / 2, arena.size[1] / 2
     zenith, horizon = spec.sky.zenith.draw(rng), spec.sky.horizon.draw(rng)
-    b.assets.append(
-        f'<texture name="sky" type="skybox" builtin="gradient" rgb1="{_vec(*zenith)}" '
-        f'rgb2="{_vec(*horizon)}" width="256" height="1536"/>'
-    )
+    files: dict[str, bytes] = {}  # generated images the MJCF names, besides the textures'
+    if day is not None and day.cloud_cover is not None:
+        clouds = sky_faces(
+            world_seed, day.day, day.start_hour, zenith, horizon, day.cloud_cover, day.overcast
+        )
+        files["sky.png"] = png_bytes(clouds)
+        b.assets.append(skybox_mjcf("sky", "sky.png"))
+    else:
+        b.assets.append(
+            f'<texture name="sky" type="skybox" builtin="gradient" rgb1="{_vec(*zenith)}" '
+            f'rgb2="{_vec(*horizon)}" width="256" height="1536"/>'
+        )
     ground = b.textured("grass", b.surface_material(spec.ground))
     floor = b.textured("asphalt", b.surface_material(spec.floor))
     reach = max(hx, hy) + arena.wall_thickness + spec.landmarks.clearance + spec.landmarks.depth
@@ -420,7 +431,7 @@ def build_world(
     seed = int(world_seed)
     lanes = None if spec.dynamics is None else mover_lanes(spec.dynamics, arena.size, seed)
     if spec.outdoor is not None:
-        day = spec.dynamics if dynamics is None else dynamics  # its parked objects and trees
+        # the day's parked objects and trees
         facades = designs_for(spec.outdoor.buildings, seed)
         changes = rearranged_for(day, seed), foliage_for(day, seed), facades
         landmarks += build_outdoor(b, lanes, *changes)
@@ -489,5 +500,5 @@ def build_world(
         walls=_walls(spec),
         blocks=() if spec.outdoor is None else spec.outdoor.blocks,
     )
-    assets = {} if b.textures is None else dict(b.textures.files)
+    assets = files if b.textures is None else {**b.textures.files, **files}
     return World(mjcf=mjcf, layout=layout, lanes=lanes, assets=assets)

@@ -27,7 +27,8 @@ the same scene.
 * **Movers**: pedestrians on the pavement, a cyclist and cars on a road past one side, as
   mocap bodies on lanes the scene keeps free (:mod:`sfa_gym.sim.worlds.movers`).
 
-The sky's gradient texture is not changed over the day (that would mean re-uploading it).
+The sky's texture is not changed over the day (that would mean re-uploading it); with a
+``cloud_cover`` it is drawn for the clock's start hour (:mod:`sfa_gym.sim.worlds.sky`).
 The camera's own effects (exposure, noise) are in :mod:`sfa_gym.sim.camera.sensor`.
 """
 
@@ -133,6 +134,9 @@ class DynamicsSpec:
         grass_seasons: the lawn's colour by the date (needs a ``day_of_year``): green from
             May to October, a dormant straw-olive in winter (:mod:`sfa_gym.sim.worlds.ground`);
             False: the lawn as drawn, whatever the date.
+        cloud_cover: the fraction of the sky that a layer of clouds covers, drawn into the
+            skybox for the clock's start hour on this ``day`` (:mod:`sfa_gym.sim.worlds.sky`;
+            ``overcast`` closes it into a grey deck); None: the world's plain gradient sky.
         road: the road of the cyclists and cars.
         clock, clouds, movers: switch each effect (the clock off holds the sun where it
             stood when the episode started, while clouds and movers go on; the movers off
@@ -165,6 +169,7 @@ class DynamicsSpec:
     shadows: bool = False
     ground: str = "dry"
     grass_seasons: bool = False
+    cloud_cover: float | None = None
 
     def __post_init__(self) -> None:
         check_value(
@@ -229,6 +234,12 @@ class DynamicsSpec:
             "too",
         )
         check_ground(self.ground)
+        check_value(
+            self.cloud_cover is None
+            or (is_number(self.cloud_cover) and 0.0 <= self.cloud_cover <= 1.0),
+            f"cloud_cover must be None (the plain gradient sky) or lie in [0, 1], got "
+            f"{self.cloud_cover!r}",
+        )
         if self.latitude_deg is not None:
             check_latitude(self.latitude_deg)
             check_value(
@@ -412,6 +423,7 @@ def resolve_dynamics(
     dynamics: bool | DynamicsSpec | None,
     switches: dict[str, bool | None],
     start_hour: float | None,
+    cloud_cover: float | None = None,
 ) -> DynamicsSpec | None:
     """The dynamics an env runs, from its arguments.
 
@@ -422,9 +434,10 @@ def resolve_dynamics(
         switches: ``{"clock": ..., "clouds": ..., "movers": ..., "shadows": ...}``:
             True/False override the spec's field, None keeps it.
         start_hour: overrides ``start_hour`` when given.
+        cloud_cover: overrides ``cloud_cover`` when given.
     Raises:
-        ValueError: a switch that is not a bool or None, a bad start hour, or a switch turned
-            on (or a start hour given) while there are no dynamics.
+        ValueError: a switch that is not a bool or None, a bad start hour or cloud cover, or a
+            switch turned on (or a start hour or cloud cover given) while there are no dynamics.
     """
     if dynamics is None:
         spec = declared
@@ -441,6 +454,8 @@ def resolve_dynamics(
         if isinstance(start_hour, bool) or not isinstance(start_hour, int | float):
             raise ValueError(f"start_hour must be a number of hours in [0, 24), got {start_hour!r}")
         given["start_hour"] = float(start_hour)
+    if cloud_cover is not None:
+        given["cloud_cover"] = cloud_cover  # checked by DynamicsSpec
     if spec is None:
         asked = sorted(k for k, v in given.items() if v is not False)
         if asked:
