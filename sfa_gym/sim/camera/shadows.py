@@ -22,9 +22,9 @@ deterministic. Under an overcast sky or at night the sun has no light to take aw
 second render is skipped.
 
 Not modelled: shadows of movers farther than :data:`MOVING_HALF_WIDTH_M` from the camera, and
-the sun's half-degree penumbra (1 cm per metre of height) beyond the maps' texels (:data:`MAP_TEXELS` over the world's extent: about
-4 cm in the outdoor world). Light through see-through crowns in winter is blocked as by
-leaves: the map records the first surface.
+the sun's half-degree penumbra (1 cm per metre of height) beyond the maps' texels
+(:data:`MAP_TEXELS` over the world's extent: about 4 cm in the outdoor world). Light through
+see-through crowns in winter is blocked as by leaves: the map records the first surface.
 """
 
 from __future__ import annotations

@@ -185,9 +185,12 @@ def sky_faces(
     gridlayout="RLUDFB"`` (see the module docstring).
 
     Args:
-        world_seed, day: which world and day (another day: another wind and other clouds).
+        world_seed: which world (another world: other clouds).
+        day: which day (another day: another wind and other clouds).
         hour: time of day (h, since midnight) the sky shows.
-        zenith, horizon: the clear sky's colours (RGB in [0, 1]).
+        zenith: the clear sky's colour overhead (RGB in [0, 1]).
+        horizon: the clear sky's colour at the horizon (RGB in [0, 1]).
+        n: texels along a face's side.
         cover: the fraction of the sky covered by cloud on a day without ``overcast``.
         overcast: 0 (as ``cover``) .. 1: the cover closes into a thick grey deck.
     """
