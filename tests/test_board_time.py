@@ -45,9 +45,12 @@ def test_board_time_spans_tracks_and_counts_covered_tasks(tmp_path):
     assert out["cores_busy"] == pytest.approx(640 / 300, abs=0.01)
 
     table = board_time_table([json.loads(json.dumps(out))], {})
-    assert "| `b` | 1.0 | 5.0 | 4.0 | 420 |  |" in table
-    assert "| `c` | - | - | 0.0 | 0 | 1 |" in table
-    assert "| **the whole board, sfa** |  |  | **5.0** | 640 |  |" in table
+    assert "| `b` | 1.0 | 5.0 | 4.0 | 420 | 210 |  |" in table
+    assert "| `c` | - | - | 0.0 | 0 | 0 | 1 |" in table
+    assert "| **the whole board, sfa** |  |  | **5.0** | 640 | 320 |  |" in table
+    # the renders spread evenly over the machine's cores: the board's floor at this cache
+    cpus = out["machine"]["cpus"]
+    assert f"| rendering alone, spread over {cpus} cores |  |  | {320 / cpus / 60:.1f} |" in table
     # several methods: a column each
     other = json.loads(json.dumps(out)) | {"method": "pca", "wall_minutes": 2.5}
     other["tracks"] = other["tracks"][:1]

@@ -442,19 +442,26 @@ def board_time_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -
         lines.append(_row(["**the whole board**", *total]))
         return "\n".join(lines)
     (data,) = files
-    lines = _head(["track", "from min", "to min", "wall min", "task s", "covered"])
+    columns = ["from min", "to min", "wall min", "task s", "of which render s", "covered"]
+    lines = _head(["track", *columns])
+    render = 0.0
     for row in data["tracks"]:
         ran = row["tasks"] > 0
+        render += row["phases"]["render"]
         cells = [
             f"{row['from_minutes']:.1f}" if ran else "-",
             f"{row['to_minutes']:.1f}" if ran else "-",
             f"{row['wall_minutes']:.1f}",
             f"{row['task_seconds']:.0f}",
+            f"{row['phases']['render']:.0f}",
             row["covered"] or "",
         ]
         lines.append(_row([f"`{row['track']}`", *cells]))
-    total = [f"**{data['wall_minutes']:.1f}**", f"{data['task_seconds']:.0f}", ""]
+    total = [f"**{data['wall_minutes']:.1f}**", f"{data['task_seconds']:.0f}", f"{render:.0f}", ""]
     lines.append(_row([f"**the whole board, {data['method']}**", "", "", *total]))
+    cpus = data["machine"]["cpus"]
+    floor = f"{render / cpus / 60:.1f}"
+    lines.append(_row([f"rendering alone, spread over {cpus} cores", "", "", floor, "", "", ""]))
     return "\n".join(lines)
 
 
