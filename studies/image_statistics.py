@@ -57,11 +57,19 @@ VIEWS: dict[str, tuple[str, dict[str, Any]]] = {
         "sfa_gym/OmniRoverOutdoorTextured-v0",
         {"shadows": True},
     ),
+    "paper_outdoor textured, cloud sky 0.4, cylindrical 60 x 600": (
+        "sfa_gym/OmniRoverOutdoorTextured-v0",
+        {"camera": "cylindrical", "mirror": None, "sensor": False, "cloud_cover": 0.4},
+    ),
     "campus, cylindrical 60 x 600": (
         "sfa_gym/OmniRoverCampus-v0",
         {"camera": "cylindrical", "mirror": None, "sensor": False},
     ),
     "campus, mirror 60 x 600": ("sfa_gym/OmniRoverCampus-v0", {}),
+    "campus, cloud sky 0.4, cylindrical 60 x 600": (
+        "sfa_gym/OmniRoverCampus-v0",
+        {"camera": "cylindrical", "mirror": None, "sensor": False, "cloud_cover": 0.4},
+    ),
 }
 """The worlds and cameras measured: an env id and its kwargs."""
 
