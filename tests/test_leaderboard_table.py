@@ -176,6 +176,43 @@ def test_publish_gathers_a_run_into_one_file_the_table_reads_alike(tmp_path, cap
     assert "few_labels" in capsys.readouterr().err
 
 
+def test_publish_extends_a_published_file_keeping_its_entries_whole(tmp_path, capsys):
+    results = tmp_path / "results"
+    path = results / "few_labels" / "mine.quick.json"
+    path.parent.mkdir(parents=True)
+    path.write_text(json.dumps(_result("few_labels", "mine", {100: 3.25, 101: 3.75})))
+    earlier = tmp_path / "earlier.json"
+    assert main(["leaderboard", "publish", "--results", str(results), "--out", str(earlier)]) == 0
+    entry = json.loads(earlier.read_text())["results"][0]
+    # what a run records and a result file's shape cannot hold again: seconds, phases, isolation
+    entry |= {"task_seconds": [12.5, 13.0], "task_phases": [{"fit": 12.0}, {"fit": 12.5}]}
+    entry |= {"isolation": ["bwrap"], "result_sha256": "ab" * 32}
+    later = tmp_path / "later"
+    path = later / "train_test" / "mine.quick.json"
+    path.parent.mkdir(parents=True)
+    path.write_text(json.dumps(_result("train_test", "mine", {100: 1.5, 101: 2.5})))
+    (later / "earlier.json").write_text(json.dumps({"description": "d", "results": [entry]}))
+    out = tmp_path / "out.json"
+    args = ["leaderboard", "publish", "--results", str(later), "--out", str(out)]
+    assert main(args) == 0
+    assert "2 results" in capsys.readouterr().out
+    kept, added = json.loads(out.read_text())["results"]
+    assert kept == entry
+    assert added["track"] == "train_test" and added["per_world_seed"] == {"100": 1.5, "101": 2.5}
+
+    # an entry whose plug-ins ran unconfined is refused as a result file's task would be
+    entry["isolation"] = ["bwrap", "process"]
+    (later / "earlier.json").write_text(json.dumps({"description": "d", "results": [entry]}))
+    assert main(args) != 0
+    assert "ran unconfined" in capsys.readouterr().err
+    # and a kept entry is checked like every result: a mean that its seeds do not give is named
+    entry["isolation"] = ["bwrap"]
+    entry["score"] = entry["score"] | {"mean": 1.0}
+    (later / "earlier.json").write_text(json.dumps({"description": "d", "results": [entry]}))
+    assert main(args) != 0
+    assert "earlier.json" in capsys.readouterr().err
+
+
 def test_navigation_spl_is_gathered_checked_and_shown_beside_the_success_rate(tmp_path, capsys):
     results = tmp_path / "results"
     result = _result("nav_open", "mine", {100: 0.75, 101: 0.5})

@@ -252,7 +252,8 @@ class LeaderboardPublish:
     out: Path
     """the gathered file to write (e.g. published/leaderboard/quick.json)"""
     results: Path = Path("results/leaderboard")
-    """the results folder of the run (searched recursively)"""
+    """the results folder of the run (searched recursively); a gathered file in it is kept
+    entry by entry, so copying a published file in extends it"""
     description: str = (
         "Per track and method the mean score over the track's world seeds, its 95 % interval, each "
         "seed's score, the parts' means and the provenance of the result file. Localization: "

@@ -239,6 +239,9 @@ def _from_gathered(entry: Any, where: str, source: str) -> dict[str, Any]:
         "parts": entry.get("parts"),
         "provenance": {k: entry.get(k) for k in _GATHERED_PROVENANCE},
         "_source": source,
+        # gathered again (publish), the entry is kept whole: its seconds, phases, isolation and
+        # result hash cannot be rebuilt from the result-file shape above
+        "_entry": entry,
     }
 
 
@@ -282,7 +285,9 @@ def write_gathered(
 ) -> int:
     """Gather every result file under ``results`` into one gathered file ``out`` (see the module
     docstring; written atomically), the form in which reference results are published; returns
-    the number of entries.
+    the number of entries. The entries of a gathered file under ``results`` are kept as they are
+    (checked like every result), so that a published file can be extended by a later run: copy
+    it into the run's folder and publish again.
 
     Raises:
         ValueError: ``results`` holds no result file, a result of the same track, size and
@@ -295,10 +300,12 @@ def write_gathered(
     found = [r for r in load_results(results) if "_file" in r]
     if not found:
         raise ValueError(f"no leaderboard result files under {results}")
+    loose = ("process", "in-process")
     unconfined = [
         r["_file"]
         for r in found
-        if any(t.get("isolation") in ("process", "in-process") for t in r["tasks"])
+        if any(t.get("isolation") in loose for t in r["tasks"])
+        or any(i in loose for i in r.get("_entry", {}).get("isolation", []))
     ]
     if unconfined:
         raise ValueError(
@@ -308,7 +315,8 @@ def write_gathered(
             "install bubblewrap (scripts/setup.sh does) and run again"
         )
     entries = sorted(
-        (gathered_entry(r) for r in found), key=lambda e: (e["track"], e["quick"], e["method"])
+        (r["_entry"] if "_entry" in r else gathered_entry(r) for r in found),
+        key=lambda e: (e["track"], e["quick"], e["method"]),
     )
     keys = [(e["track"], e["quick"], e["method"]) for e in entries]
     repeated = sorted({k for k in keys if keys.count(k) > 1})
