@@ -1,19 +1,19 @@
-"""Benchmark: what the optional effects (auto white balance, vignetting, fog, another day's
-parked objects, the seasons' foliage, cast shadows, wet ground and snow, a cloud sky) and the
+"""Benchmark: what the optional effects (auto white balance, vignetting, motion blur, fog, another
+day's parked objects, the seasons' foliage, cast shadows, wet ground and snow, a cloud sky) and the
 textured worlds (the outdoor world and the campus) cost per step.
 
 The registered ``OmniRoverOutdoor-v0`` (mirror camera, dynamics, auto-exposure and noise: the
-reference) against the same env with each effect switched on (fog: the dynamics' visibility,
-which reads the depth buffer beside the colours; parked objects: the dynamics' arrangement 1;
-seasons: mid-January with seasons on, whose bare crowns are see-through; shadows: the sun's
-depth map and every view rendered a second time without the sun; wet ground: darker ground
-materials with a specular highlight; snow: whiter ground textures; a cloud sky: the skybox
-drawn with clouds, sampled through its mipmaps where the plain gradient is sampled from its
-nearest texel), all driving the same commands (a slow curve) from the same start, timed in
-interleaved batches
-(:func:`benchmarks.bench_outdoor.time_steps`) and reported as the median CPU time of the process
-per step and its ratio to the reference measured in the same process (CPU time: on a shared
-machine a batch's wall-clock depends on what else runs; the file has the wall-clock too).
+reference) against the same env with each effect switched on (fog: the dynamics' visibility, which
+reads the depth buffer beside the colours; parked objects: the dynamics' arrangement 1; seasons:
+mid-January with seasons on, whose bare crowns are see-through; shadows: the sun's depth map and
+every view rendered a second time without the sun; wet ground: darker ground materials with a
+specular highlight; snow: whiter ground textures; motion blur: the frame smeared along its rows by
+the turn during a 1/30 s exposure; a cloud sky: the skybox drawn with clouds, sampled through its
+mipmaps where the plain gradient is sampled from its nearest texel), all driving the same commands
+(a slow curve) from the same start, timed in interleaved batches
+(:func:`benchmarks.bench_outdoor.time_steps`) and reported as the median CPU time of the process per
+step and its ratio to the reference measured in the same process (CPU time: on a shared machine a
+batch's wall-clock depends on what else runs; the file has the wall-clock too).
 
 Usage (from the repository root)::
 
@@ -40,6 +40,7 @@ SENSORS: dict[str, SensorSpec] = {
     "+ auto white balance": SensorSpec(white_balance=True),
     "+ vignetting 0.3": SensorSpec(vignetting=0.3),
     "+ both": SensorSpec(white_balance=True, vignetting=0.3),
+    "+ motion blur, 1/30 s": SensorSpec(exposure_s=1 / 30),
 }
 """Each env's name and sensor; the first is the reference."""
 

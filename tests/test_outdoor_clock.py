@@ -202,13 +202,15 @@ def test_the_textured_tracks_render_the_same_places_textured_and_cover_each_othe
         dataclasses.replace(Config(), textures=1).validate()
 
 
-def test_white_balance_and_vignetting_reach_the_env_only_when_switched_on():
+def test_white_balance_vignetting_and_blur_reach_the_env_only_when_switched_on():
     from sfa_gym.sim.camera.sensor import SensorSpec
 
     plain = Config().env_kwargs("after", 300)
     assert plain["sensor"] is True  # the runs of before keep their cache keys
     kwargs = Config(white_balance=True, vignetting=0.3).env_kwargs("later", 300)
     assert kwargs["sensor"] == SensorSpec(white_balance=True, vignetting=0.3)
+    blurred = Config(exposure_s=0.02).env_kwargs("after", 300)
+    assert blurred["sensor"] == SensorSpec(exposure_s=0.02)
     keys = {Config(white_balance=w).env_kwargs("after", 300)["sensor"] for w in (False, True)}
     assert len(keys) == 2
     for changes, match in (
@@ -216,6 +218,8 @@ def test_white_balance_and_vignetting_reach_the_env_only_when_switched_on():
         ({"white_balance": True, "sensor": False}, "effects of the sensor: sensor=True"),
         ({"vignetting": 0.2, "camera": "cylindrical"}, "needs the mirror camera"),
         ({"white_balance": 1}, "white_balance must be True or False, got 1"),
+        ({"exposure_s": 0.01, "sensor": False}, "effects of the sensor: sensor=True"),
+        ({"exposure_s": -1.0}, "exposure_s must be a finite number of seconds >= 0, got -1.0"),
     ):
         with pytest.raises((ValueError, TypeError), match=match):
             dataclasses.replace(Config(), **changes).validate()

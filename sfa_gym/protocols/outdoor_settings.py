@@ -121,6 +121,9 @@ class Config:
     vignetting: float = 0.0
     """share of the light the mirror camera's lens loses at the mirror's rim, in [0, 1) (0:
     none; needs sensor and the mirror camera)"""
+    exposure_s: float = 0.0
+    """the camera's exposure time at unit gain, s (the auto-exposure lengthens it): frames
+    blur while the rover turns (sfa_gym.sim.camera.sensor; needs sensor); 0: instantaneous"""
     vibration: bool = True
     """the sprung camera mast (False: a rigid one)"""
     textures: bool = False
@@ -198,9 +201,11 @@ class Config:
         cover = self.cloud_cover
         if cover is not None and not (is_number(cover) and 0.0 <= cover <= 1.0):
             raise ValueError(f"cloud_cover must be None or lie in [0, 1], got {cover!r}")
-        self._sensor_spec()  # the sensor's own check of vignetting
-        if (self.white_balance or self.vignetting) and not self.sensor:
-            raise ValueError("white_balance and vignetting are effects of the sensor: sensor=True")
+        self._sensor_spec()  # the sensor's own check of vignetting and exposure_s
+        if (self.white_balance or self.vignetting or self.exposure_s) and not self.sensor:
+            raise ValueError(
+                "white_balance, vignetting and exposure_s are effects of the sensor: sensor=True"
+            )
         if self.vignetting and self.camera != "mirror":
             raise ValueError(
                 f"vignetting {self.vignetting} needs the mirror camera, got camera={self.camera!r}"
@@ -356,7 +361,7 @@ class Config:
             kwargs["mirror"] = None
         if self.textures:  # only when on: the flat world's runs keep their cache keys
             kwargs["textures"] = True
-        if self.white_balance or self.vignetting:  # likewise
+        if self.white_balance or self.vignetting or self.exposure_s:  # likewise
             kwargs["sensor"] = self._sensor_spec()
         if self.panorama is not None:
             from sfa_gym.sim.camera import PanoramaSpec
@@ -389,10 +394,15 @@ class Config:
         return {**kwargs, "start_hour": hour, "dynamics": spec}
 
     def _sensor_spec(self) -> Any:
-        """The sensor of the runs with white balance or vignetting on (its fields checked)."""
+        """The sensor of the runs with white balance, vignetting or motion blur on (its fields
+        checked)."""
         from sfa_gym.sim.camera.sensor import SensorSpec
 
-        return SensorSpec(white_balance=self.white_balance, vignetting=self.vignetting)
+        return SensorSpec(
+            white_balance=self.white_balance,
+            vignetting=self.vignetting,
+            exposure_s=self.exposure_s,
+        )
 
     def _condition(self, name: str) -> tuple[Condition, float]:
         """The kind and offset of the condition ``name``: one of :meth:`offsets`, or any kind

@@ -172,9 +172,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
       :mod:`sfa_gym.sim.worlds.sky`).
     * ``sensor`` (None): the camera's auto-exposure and noise: None or False for none, True
       for the default ``SensorSpec``, or a ``SensorSpec`` (which also switches on auto white
-      balance and a mirror camera's vignetting); ``auto_exposure`` and ``sensor_noise``
-      (None) switch its two default effects. Noise is drawn from a generator seeded
-      from ``np_random`` on each reset (same seed, same noise).
+      balance, a mirror camera's vignetting and motion blur while turning); ``auto_exposure``
+      and ``sensor_noise`` (None) switch its two default effects. Noise is drawn from a
+      generator seeded from ``np_random`` on each reset (same seed, same noise).
     * ``textures`` (None): generated surface textures (outdoor worlds): None keeps the world
       spec's, False none, True the spec's or the default ``TexturesSpec``, or a
       ``TexturesSpec`` (:mod:`sfa_gym.sim.worlds.textures`).
@@ -304,6 +304,8 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
 
         joint = self.model.joint("rover_root")
         self._qpos0 = int(joint.qposadr[0])
+        self._dof0 = int(joint.dofadr[0])
+        self._rover_body = int(joint.bodyid[0])
         self._actuators = [self.model.actuator(f"rover_drive_{w}").id for w in WHEELS]
         self._rest_z = self._settled_height()
 
@@ -329,6 +331,12 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         # time of day (s since midnight): set on the first reset, then it runs on
         self._clock: float | None = None
         self._sun_time: float | None = None  # where the sun is held with the clock off
+        exposure = 0.0 if self.sensor is None else self.sensor.exposure_s
+        if exposure > 0 and self.camera == "mirror_circular":
+            raise ValueError(
+                f"exposure_s {exposure} (motion blur) needs a panorama, whose "
+                "columns are azimuths: camera 'mirror' or 'cylindrical', not 'mirror_circular'"
+            )
         self._sensor = None if self.sensor is None else Sensor(self.sensor, self._falloff())
         self._noise_rng: np.random.Generator | None = None
 
@@ -411,6 +419,12 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
     def _pose(self) -> tuple[float, float, float]:
         q = self.data.qpos[self._qpos0 : self._qpos0 + 7]
         return float(q[0]), float(q[1]), yaw_of_quat(*(float(v) for v in q[3:7]))
+
+    def _yaw_rate(self) -> float:
+        """The rover's turning rate about the world's vertical, rad/s (counter-clockwise > 0):
+        a free joint's angular velocity is in its body's frame."""
+        omega = self.data.qvel[self._dof0 + 3 : self._dof0 + 6]
+        return float(self.data.xmat[self._rover_body].reshape(3, 3)[2] @ omega)
 
     def _info(self, pose: tuple[float, float, float] | None = None) -> dict[str, float]:
         """Ground truth at ``pose`` (the current one, read from the state when None)."""
@@ -530,7 +544,7 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
             def sensor(image: NDArray[np.uint8]) -> NDArray[np.uint8]:
                 if dt is None:
                     device.reset(image)
-                return device.process(image, 0.0 if dt is None else dt, rng)
+                return device.process(image, 0.0 if dt is None else dt, rng, self._yaw_rate())
 
         if isinstance(self._camera, MirrorCamera):
             if self.camera == "mirror_circular":

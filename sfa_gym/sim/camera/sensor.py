@@ -1,5 +1,5 @@
-"""The camera's own effects on its pixels: vignetting, auto-exposure (gain), auto white
-balance and noise.
+"""The camera's own effects on its pixels: motion blur, vignetting, auto-exposure (gain), auto
+white balance and noise.
 
 A real camera does not see the scene's radiance: it scales it by a gain that its auto-exposure
 drives towards a target brightness, with a lag, and adds noise. Outdoors this matters: when a
@@ -10,6 +10,14 @@ cloud passes, the image first darkens and then the exposure brings it back.
   to ``gain_range``. The meter averages the pixels that are not black in every channel (a
   mirror camera's image is black outside the mirror's disc). :meth:`Sensor.reset` sets it to
   the steady value of the first frame, so an episode starts well exposed.
+* Motion blur (off by default): a frame integrates the scene over its exposure, and a rover
+  turning at ``w`` rad/s sweeps its camera ``w * exposure`` radians of azimuth meanwhile. A
+  panorama's columns are azimuths, so the frame is the last instant's panorama averaged over
+  its shifts from 0 to ``w * exposure * W / (2 pi)`` columns (:func:`azimuth_blur`: a box
+  along the row, exact for a turn at a constant rate and the panorama linear between columns).
+  The exposure is ``exposure_s`` at unit gain and grows with the auto-exposure's gain (a camera
+  exposes longer before it amplifies), at most the frame interval. Driving straight blurs too
+  (the scene's parallax), far less at the rover's speeds; it is not modelled.
 * Vignetting (off by default): the lens passes less light away from its axis, by the ``cos^4``
   law of the angle off the axis; the camera gives the relative illumination of each pixel
   (:func:`sfa_gym.sim.camera.mirror.vignetting_gain`: ``1 - vignetting`` at the mirror's rim).
@@ -31,7 +39,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Sensor", "SensorSpec", "resolve_sensor"]
+__all__ = ["Sensor", "SensorSpec", "azimuth_blur", "resolve_sensor"]
 
 
 @dataclass(frozen=True)
@@ -50,6 +58,9 @@ class SensorSpec:
         white_balance_range: ``[min, max]`` gain of a channel.
         vignetting: share of the light lost at the edge of the image (the mirror's rim),
             ``0 <= vignetting < 1``; 0: none.
+        exposure_s: exposure time at unit gain, s; the auto-exposure scales it by its gain,
+            capped at the frame interval. 0: instantaneous frames (no motion blur). Daylight
+            consumer cameras expose about 1/1000 s and less; indoors 1/30-1/60 s.
     """
 
     auto_exposure: bool = True
@@ -62,6 +73,7 @@ class SensorSpec:
     white_balance: bool = False
     white_balance_range: tuple[float, float] = (0.5, 2.0)
     vignetting: float = 0.0
+    exposure_s: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("auto_exposure", "noise", "white_balance"):
@@ -89,12 +101,16 @@ class SensorSpec:
         v = self.vignetting
         if isinstance(v, bool) or not (isinstance(v, int | float) and 0.0 <= v < 1.0):
             raise ValueError(f"vignetting must be a number in [0, 1), got {v!r}")
+        e = self.exposure_s
+        if isinstance(e, bool) or not (isinstance(e, int | float) and 0.0 <= e < math.inf):
+            raise ValueError(f"exposure_s must be a finite number of seconds >= 0, got {e!r}")
 
     @property
     def active(self) -> bool:
         """Whether the sensor changes any pixel."""
         noisy = self.noise and (self.read_noise > 0 or self.shot_noise > 0)
-        return self.auto_exposure or self.white_balance or self.vignetting > 0 or noisy
+        effects = self.auto_exposure or self.white_balance or self.vignetting > 0
+        return effects or noisy or self.exposure_s > 0
 
 
 class Sensor:
@@ -142,8 +158,21 @@ class Sensor:
         lo, hi = self.spec.white_balance_range
         return np.clip(sums.mean() / sums, lo, hi)
 
-    def _optics(self, image: NDArray[np.uint8]) -> NDArray[np.uint8]:
-        """The image the lens delivers to the sensor: vignetted, in whole grey levels."""
+    def exposure(self, dt: float) -> float:
+        """The exposure of a frame ``dt`` seconds after the previous one, s: ``exposure_s``
+        times the gain the auto-exposure has set (1 without), at most ``dt``."""
+        gain = self.gain if self.spec.auto_exposure else 1.0
+        return min(self.spec.exposure_s * gain, dt)
+
+    def _optics(
+        self, image: NDArray[np.uint8], dt: float = 0.0, yaw_rate: float = 0.0
+    ) -> NDArray[np.uint8]:
+        """The image the lens delivers to the sensor: smeared by the turn during the exposure
+        (the scene moves across the sensor, the lens's falloff does not), vignetted, in whole
+        grey levels."""
+        if self.spec.exposure_s > 0 and yaw_rate != 0 and dt > 0:
+            columns = yaw_rate * self.exposure(dt) * image.shape[1] / (2 * math.pi)
+            image = azimuth_blur(image, columns)
         if self.falloff is None:
             return image
         lens = image * self.falloff
@@ -157,12 +186,19 @@ class Sensor:
         self.balance = self._steady_balance(image) if self.spec.white_balance else np.ones(3)
 
     def process(
-        self, image: NDArray[np.uint8], dt: float, rng: np.random.Generator
+        self,
+        image: NDArray[np.uint8],
+        dt: float,
+        rng: np.random.Generator,
+        yaw_rate: float = 0.0,
     ) -> NDArray[np.uint8]:
-        """The frame the camera delivers for the raw frame ``image`` (uint8, any shape),
-        ``dt`` seconds after the previous one; updates the gains first."""
+        """The frame the camera delivers for the raw frame ``image`` (uint8, any shape; with
+        motion blur a panorama ``(H, W, ...)`` whose columns are azimuths), ``dt`` seconds after
+        the previous one, the camera turning at ``yaw_rate`` rad/s (counter-clockwise > 0).
+        The exposure time follows the gain the previous frames set; then the gains are updated,
+        and applied."""
         spec = self.spec
-        image = self._optics(image)
+        image = self._optics(image, dt, yaw_rate)
         # first-order lag in log gain: equal steps up and down in stops
         alpha = 1.0 - math.exp(-dt / spec.tau_s) if dt > 0 else 0.0
         if spec.auto_exposure and dt > 0:
@@ -189,6 +225,41 @@ class Sensor:
         np.rint(signal, out=signal)
         np.clip(signal, 0, 255, out=signal)
         return signal.astype(np.uint8)
+
+
+def azimuth_blur(image: NDArray[np.uint8], columns: float) -> NDArray[np.uint8]:
+    """A panorama ``(H, W, ...)`` (column ``c`` at azimuth ``2 pi c / W``, counter-clockwise)
+    as a camera turning counter-clockwise by ``columns`` columns during its exposure records it:
+    the mean of the panorama shifted by every amount from 0 to ``columns`` (negative: the other
+    way), the panorama taken as linear between its columns; whole grey levels. Beyond a full
+    turn the blur is that of a full turn.
+
+    A camera turning counter-clockwise sees the scene move to lower columns, so the frame's
+    content at column ``c`` was at ``c + s`` columns ``s`` before the exposure ended: the
+    average over shifts towards higher columns.
+    """
+    width = image.shape[1]
+    length = min(abs(float(columns)), float(width))
+    if length < 1e-6:
+        return image
+    # weight of the shift by j columns: the box [0, length] against the linear interpolation's
+    # triangle around j, divided by the box's length (the weights sum to 1)
+    shifts = np.arange(int(math.ceil(length)) + 2)
+    weights = (_ramp(length - shifts) - _ramp(-shifts.astype(float))) / length
+    sign = 1 if columns > 0 else -1
+    out = np.zeros(image.shape, np.float32)
+    for shift, weight in zip(shifts, weights, strict=True):
+        if weight > 0:
+            out += np.float32(weight) * np.roll(image, sign * int(shift), axis=1)
+    np.rint(out, out=out)
+    np.clip(out, 0, 255, out=out)
+    return out.astype(np.uint8)
+
+
+def _ramp(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The integral of the unit triangle ``max(0, 1 - |u|)`` from -inf to ``x``."""
+    x = np.clip(x, -1.0, 1.0)
+    return np.where(x < 0, (x + 1) ** 2 / 2, 1 - (1 - x) ** 2 / 2)
 
 
 def resolve_sensor(
