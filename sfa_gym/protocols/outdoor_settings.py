@@ -202,7 +202,7 @@ class Config:
         if cover is not None and not (is_number(cover) and 0.0 <= cover <= 1.0):
             raise ValueError(f"cloud_cover must be None or lie in [0, 1], got {cover!r}")
         self._sensor_spec()  # the sensor's own check of vignetting and exposure_s
-        if (self.white_balance or self.vignetting or self.exposure_s) and not self.sensor:
+        if self._sensor_effects and not self.sensor:
             raise ValueError(
                 "white_balance, vignetting and exposure_s are effects of the sensor: sensor=True"
             )
@@ -361,7 +361,7 @@ class Config:
             kwargs["mirror"] = None
         if self.textures:  # only when on: the flat world's runs keep their cache keys
             kwargs["textures"] = True
-        if self.white_balance or self.vignetting or self.exposure_s:  # likewise
+        if self._sensor_effects:  # likewise
             kwargs["sensor"] = self._sensor_spec()
         if self.panorama is not None:
             from sfa_gym.sim.camera import PanoramaSpec
@@ -392,6 +392,12 @@ class Config:
             change[kind] = {"day_of_year": (spec.day_of_year - 1 + int(offset)) % 365 + 1}
         spec = dataclasses.replace(spec, **change[kind])
         return {**kwargs, "start_hour": hour, "dynamics": spec}
+
+    @property
+    def _sensor_effects(self) -> bool:
+        """Whether an effect beyond the default sensor's is on (white balance, vignetting,
+        motion blur): the runs then pass a SensorSpec of their own."""
+        return bool(self.white_balance or self.vignetting or self.exposure_s)
 
     def _sensor_spec(self) -> Any:
         """The sensor of the runs with white balance, vignetting or motion blur on (its fields
