@@ -31,7 +31,7 @@ class Args:
 
 def turned_frame(world_seed: int, exposure_s: float, hour: float) -> tuple[np.ndarray, float]:
     """The last of 10 frames while turning in place at ``w_max`` from the protocol's start,
-    and the sensor's exposure for it, s."""
+    and the sensor's exposure for it, s (set by the gain before that frame)."""
     import gymnasium as gym
 
     import sfa_gym  # noqa: F401  (registers the ids)
@@ -48,9 +48,10 @@ def turned_frame(world_seed: int, exposure_s: float, hour: float) -> tuple[np.nd
     ).unwrapped
     env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})
     turn = np.array([0.0, env.w_max], np.float32)
-    for _ in range(10):
-        frame = env.step(turn)[0]
+    for _ in range(9):
+        env.step(turn)
     exposure = env._sensor.exposure(env.control_dt)
+    frame = env.step(turn)[0]
     env.close()
     return frame, exposure
 
@@ -60,13 +61,17 @@ def main(args: Args) -> None:
 
     lo, hi = args.columns
     rows = []
-    for exposure_s, hour in ((0.0, 12.0), (1 / 250, 12.0), (1 / 60, 12.0), (1 / 30, 12.0)):
+    # noon at four exposures, then dusk, where the auto-exposure's gain lengthens 1/60 s
+    for exposure_s, hour in (
+        (0.0, 12.0),
+        (1 / 250, 12.0),
+        (1 / 60, 12.0),
+        (1 / 30, 12.0),
+        (1 / 60, 19.5),
+    ):
         frame, used = turned_frame(args.world_seed, exposure_s, hour)
         title = f"{hour:g} h, exposure_s {exposure_s:.4f}: {used * 1000:.1f} ms exposed"
         rows.append((title, np.repeat(np.repeat(frame[:, lo:hi], 4, 0), 4, 1)))
-    frame, used = turned_frame(args.world_seed, 1 / 60, 19.5)
-    title = f"19.5 h (dusk), exposure_s {1 / 60:.4f}: {used * 1000:.1f} ms exposed (the gain's)"
-    rows.append((title, np.repeat(np.repeat(frame[:, lo:hi], 4, 0), 4, 1)))
     save_strip(rows, args.out, "turning in place, commanded 1 rad/s", width=6.0)
 
 
