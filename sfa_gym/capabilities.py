@@ -31,7 +31,9 @@ class Capabilities:
     """has ``fit_rotations(panoramas (L, H, W, 3)) -> self``: fits on every simulated rotation of
     each panorama, in visiting order, with the rotation of its own ``rotation`` attribute (a
     :class:`~sfa_gym.rotation.Rotation`); hierarchical SFA computes its lower layers once per
-    panorama that way"""
+    panorama that way. A protocol that trains on several appearances of each location inside
+    its rotation sequence calls ``fit_rotations(panoramas, appearances=A)`` (runs of ``A``
+    consecutive panoramas: one location; :func:`~sfa_gym.rotation.rotation_sequence`)"""
     transform_rotations: bool = False
     """has ``transform_rotations(panoramas (L, H, W, 3), step) -> (L, W // step, k)``: the
     features of every ``step``-column rotation of each panorama, all at once"""

@@ -65,7 +65,9 @@ Optional capabilities are declared in one way: a class attribute ``capabilities`
 when a parameter decides it), a :class:`~sfa_gym.capabilities.Capabilities` with
 
 - ``fit_rotations``: has ``fit_rotations(panoramas)``, fitting on every rotation of each panorama
-  with its own ``rotation``;
+  with its own ``rotation`` (and ``fit_rotations(panoramas, appearances=A)`` where a protocol
+  trains on ``A`` appearances of each location: the outdoor protocol's
+  ``train_also_order="rotations"``);
 - ``transform_rotations``: has ``transform_rotations(panoramas, step) -> (L, W // step, k)``;
 - ``rotation_indices``: its ``transform_rotations(panoramas, step, indices)`` also takes the
   rotations a protocol scores and computes only those, ``(L, len(indices), k)``;

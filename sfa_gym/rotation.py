@@ -33,6 +33,7 @@ __all__ = [
     "n_rotations",
     "rotation_angles",
     "rotation_columns",
+    "rotation_sequence",
     "rotated_views",
     "spread_indices",
     "quarter_indices",
@@ -101,6 +102,28 @@ def check_indices(width: int, step: int, indices: ArrayLike | None) -> NDArray[n
             f"got {indices!r}"
         )
     return k.astype(np.intp)
+
+
+def rotation_sequence(
+    n_rot: int, appearances: int = 1
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The order in which the views of one place are trained on: ``(k, a)``, each ``(n_rot *
+    appearances,)``, rotation ``k`` of the place's panorama under appearance ``a``.
+
+    With one appearance the rotations come in order, ``k = 0 .. n_rot - 1``. With several
+    (the same place recorded at other times), every rotation is seen under each appearance
+    before the next rotation, the appearances in a snake (forward at even ``k``, backward at
+    odd ``k``): consecutive views differ either in appearance alone or in rotation alone, and
+    the appearance changes faster than the rotation, so that slowness learns to ignore both.
+    """
+    if not _is_int(n_rot) or n_rot < 1:
+        raise ValueError(f"n_rot must be a positive int, got {n_rot!r}")
+    if not _is_int(appearances) or appearances < 1:
+        raise ValueError(f"appearances must be a positive int, got {appearances!r}")
+    k = np.repeat(np.arange(n_rot, dtype=np.intp), appearances)
+    forward = np.tile(np.arange(appearances, dtype=np.intp), n_rot)
+    a = np.where(k % 2 == 0, forward, appearances - 1 - forward)
+    return k, a
 
 
 def rotation_angles(

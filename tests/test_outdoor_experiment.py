@@ -98,6 +98,8 @@ def test_ablation_switches_reach_the_env_kwargs():
         ({"normalise": "equalise"}, "normalise must be one of"),
         ({"train_also": (0.0,)}, "train_also must be a tuple of non-zero hours"),
         ({"train_also": (2.0,), "dynamics": False}, "train_also .* needs dynamics=True"),
+        ({"train_also": (2.0,), "train_also_order": "days"}, "train_also_order must be one of"),
+        ({"train_also_order": "rotations"}, "orders the train_also runs: give train_also"),
         ({"conditions": ("after", "other_season")}, "other_season .* give a day_of_year|date the"),
         (
             {"conditions": ("after", "other_season"), "day_of_year": 100, "season_days": 365},

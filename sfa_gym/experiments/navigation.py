@@ -78,11 +78,11 @@ class _StoredSFA(SlowFeatureMethod):
         super().__init__(settings, Rotation(step=5), progress)
         self.path = path
 
-    def fit_rotations(self, panoramas: NDArray[np.uint8]) -> _StoredSFA:
+    def fit_rotations(self, panoramas: NDArray[np.uint8], appearances: int = 1) -> _StoredSFA:
         from sfa_gym.sfa.io import load_model, save_model
 
         if not self.path.exists():
-            save_model(super().fit_rotations(panoramas).model_, self.path)
+            save_model(super().fit_rotations(panoramas, appearances).model_, self.path)
             return self
         self.model_ = load_model(self.path)
         self.input_shape_ = self.model_.input_shape_

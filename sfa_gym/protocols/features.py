@@ -16,7 +16,7 @@ from sfa_gym.capabilities import get_capabilities
 from sfa_gym.localization import eta_phi, eta_r
 from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod
-from sfa_gym.rotation import Rotation
+from sfa_gym.rotation import Rotation, rotation_sequence
 
 __all__ = [
     "VIEWS_PER_BLOCK",
@@ -25,6 +25,7 @@ __all__ = [
     "full_width",
     "invariance_entry",
     "method_regressors",
+    "training_views",
     "view_features",
 ]
 
@@ -86,21 +87,47 @@ def view_features(
 
 @phase("fit")
 def fit_method(
-    method: FeatureMethod, panoramas: NDArray[np.uint8], rotation: Rotation
+    method: FeatureMethod,
+    panoramas: NDArray[np.uint8],
+    rotation: Rotation,
+    appearances: int = 1,
 ) -> FeatureMethod:
     """Fit ``method`` on every rotated view of ``panoramas (L, H, W, 3)``: all views of the first
     location, then of the next, ... (``fit_rotations`` if the method has that capability: it
-    fits with its own ``rotation``, which must be ``rotation``)."""
+    fits with its own ``rotation``, which must be ``rotation``). With ``appearances = A > 1``
+    each run of ``A`` consecutive panoramas is one location under ``A`` appearances, seen in
+    the order of :func:`training_views` (``fit_rotations(panoramas, appearances=A)``)."""
     capabilities = get_capabilities(method)
     if capabilities.fit_rotations:
         own = method.rotation  # type: ignore[attr-defined]
         if own != rotation:
             raise ValueError(f"{method.name} was set up for {own}, asked to fit on {rotation}")
-        return method.fit_rotations(panoramas)
+        if appearances == 1:  # the one-argument call every plug-in with the capability takes
+            return method.fit_rotations(panoramas)
+        return method.fit_rotations(panoramas, appearances=appearances)
     if capabilities.rotation_invariant and full_width(rotation, panoramas):
         return method.fit(np.asarray(panoramas))  # every full-width view is alike
-    views = rotation.views(panoramas)[0]
-    return method.fit(views.reshape(-1, *views.shape[2:]))
+    return method.fit(training_views(panoramas, rotation, appearances))
+
+
+def training_views(
+    panoramas: NDArray[np.uint8],
+    rotation: Rotation,
+    appearances: int = 1,
+    indices: NDArray[np.intp] | None = None,
+) -> NDArray[np.uint8]:
+    """The rotated views ``indices`` (all by default) of ``panoramas (L, H, W, 3)`` as one
+    training sequence ``(N, H, W', 3)``: location by location, and within a location in the
+    order of :func:`~sfa_gym.rotation.rotation_sequence` over its ``appearances``
+    consecutive panoramas (the rotations in order for one)."""
+    if len(panoramas) % appearances:
+        raise ValueError(
+            f"{len(panoramas)} panoramas are not whole locations of {appearances} appearances"
+        )
+    views = rotation.views(panoramas, indices)[0]  # (L, K', H, W', 3)
+    k, a = rotation_sequence(views.shape[1], appearances)
+    places = views.reshape(-1, appearances, *views.shape[1:])
+    return places[:, a, k].reshape(-1, *views.shape[2:])
 
 
 def fitted_features(

@@ -35,7 +35,13 @@ from numpy.typing import NDArray
 from sfa_gym.localization.appearance import normalise_panoramas
 from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod, get_capabilities
-from sfa_gym.protocols.features import fit_method, full_width, invariance_entry, view_features
+from sfa_gym.protocols.features import (
+    fit_method,
+    full_width,
+    invariance_entry,
+    training_views,
+    view_features,
+)
 
 # the settings live in their own module; their public names are re-exported here
 from sfa_gym.protocols.outdoor_settings import CONDITIONS, ENV_ID, Condition, Config
@@ -204,15 +210,16 @@ def condition_scores(estimates: NDArray, test: TestSet, test_range: NDArray) -> 
 
 def fit_outdoor(method: FeatureMethod, config: Config, data: OutdoorData) -> FeatureMethod:
     """``method`` fitted on the training frames (see the module docstring)."""
-    rotation, train_pan = config.rotation, data.train_pan
+    rotation, train_pan, runs = config.rotation, data.train_pan, config.appearances
     capabilities = get_capabilities(method)
     if capabilities.fit_rotations or (
         capabilities.rotation_invariant and full_width(rotation, train_pan)
     ):
-        return fit_method(method, train_pan, rotation)
-    frames = np.arange(0, len(train_pan), config.fit_every)
-    views = rotation.views(train_pan[frames], data.windows)[0]
-    return method.fit(views.reshape(-1, *views.shape[2:]))
+        return fit_method(method, train_pan, rotation, runs)
+    # every fit_every-th frame, with its train_also runs where they share its rotations
+    places = np.arange(0, len(train_pan) // runs, config.fit_every)
+    frames = (places[:, None] * runs + np.arange(runs)).ravel()
+    return method.fit(training_views(train_pan[frames], rotation, runs, data.windows))
 
 
 @dataclass

@@ -52,6 +52,7 @@ CONDITIONS: tuple[str, ...] = get_args(Condition)
 """The kinds of test condition (see the module docstring); ``later`` and ``other_day`` give one
 condition per offset when their offsets are a tuple (:meth:`Config.test_conditions`)."""
 Camera = Literal["mirror", "cylindrical"]
+TrainAlsoOrder = Literal["frames", "rotations"]
 
 
 @dataclass(frozen=True)
@@ -144,6 +145,11 @@ class Config:
     """levers: the training path driven again, starting this many hours after start_hour, each
     such run interleaved frame by frame with the training run (the appearance of a place then
     changes faster than the place); every method trains on all of them"""
+    train_also_order: TrainAlsoOrder = "frames"
+    """where the train_also runs change the appearance: "frames" (each frame's rotations under
+    one run, the next frame under the next run) or "rotations" (each rotation of a frame under
+    every run before the next rotation: the appearance changes inside the frame's rotation
+    sequence, faster than the rotation)"""
     fit_every: int = 5
     """plug-ins without a rotation shortcut are fitted on every n-th training frame"""
     seed: int = 0
@@ -153,6 +159,12 @@ class Config:
     def rotation(self) -> Rotation:
         """The simulated rotation every method is trained and evaluated on."""
         return Rotation(step=self.step)
+
+    @property
+    def appearances(self) -> int:
+        """Training panoramas per location inside a rotation sequence (1 + the train_also runs
+        with ``train_also_order="rotations"``, else 1)."""
+        return 1 + len(self.train_also) if self.train_also_order == "rotations" else 1
 
     def validate(self) -> None:
         """Raise ValueError (or TypeError) naming the first bad setting."""
@@ -220,6 +232,12 @@ class Config:
             )
         if self.train_also and not self.dynamics:
             raise ValueError("train_also drives at other times of day: it needs dynamics=True")
+        check_choice("train_also_order", self.train_also_order, TrainAlsoOrder)
+        if self.train_also_order != "frames" and not self.train_also:
+            raise ValueError(
+                f"train_also_order={self.train_also_order!r} orders the train_also runs: "
+                "give train_also (hours) too"
+            )
         if self.panorama is not None:
             if not isinstance(self.panorama, tuple | list) or len(self.panorama) != 2:
                 raise ValueError(

@@ -44,12 +44,19 @@ class SlowFeatureMethod(TransformerMixin, BaseEstimator):
         self.rotation = rotation
         self.progress = progress
 
-    def fit_rotations(self, panoramas: NDArray[np.uint8]) -> SlowFeatureMethod:
-        """Fit on ``panoramas (L, H, W, 3)`` in visiting order, with all their rotations."""
+    def fit_rotations(
+        self, panoramas: NDArray[np.uint8], appearances: int = 1
+    ) -> SlowFeatureMethod:
+        """Fit on ``panoramas (L, H, W, 3)`` in visiting order, with all their rotations (runs of
+        ``appearances`` consecutive panoramas: one location, see
+        :meth:`HierarchicalSFA.fit_rotations`)."""
         _, h, w, _ = panoramas.shape
         model = self.settings.make_model(h, w, self.progress)
         self.model_ = model.fit_rotations(
-            panoramas, step=self.rotation.step, window=self.rotation.window
+            panoramas,
+            step=self.rotation.step,
+            window=self.rotation.window,
+            appearances=appearances,
         )
         self.input_shape_ = self.model_.input_shape_
         return self

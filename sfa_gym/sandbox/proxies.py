@@ -264,8 +264,10 @@ class IsolatedMethod(_Isolated):
             return self._fitted("fit", np.asarray(views))
         return self._fitted("fit", np.asarray(views), np.asarray(sequence_ids))
 
-    def fit_rotations(self, panoramas: ArrayLike) -> IsolatedMethod:
-        return self._fitted("fit_rotations", np.asarray(panoramas))
+    def fit_rotations(self, panoramas: ArrayLike, appearances: int = 1) -> IsolatedMethod:
+        if appearances == 1:  # the one-argument call every plug-in with the capability takes
+            return self._fitted("fit_rotations", np.asarray(panoramas))
+        return self._fitted("fit_rotations", np.asarray(panoramas), int(appearances))
 
     def transform(self, views: ArrayLike) -> NDArray[Any]:
         views = np.asarray(views)

@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from sfa_gym.rotation import check_step, check_window, rotation_columns
+from sfa_gym.rotation import check_step, check_window, rotation_columns, rotation_sequence
 from sfa_gym.sfa._layers import Affine, LayerParams, layer_patches
 from sfa_gym.sfa._moments import Moments, sequence_block
 from sfa_gym.sfa._parallel import ordered_map
@@ -153,9 +153,14 @@ class Source:
 
     n_items: int
     dense_cols: int | None = None
+    item_group: int = 1  # chunks hold whole runs of this many items
+
+    def chunk_size(self, batch: int) -> int:
+        """Items per chunk: ``batch`` rounded up to whole groups of items."""
+        return -(-batch // self.item_group) * self.item_group
 
     def n_blocks(self, batch: int) -> int:
-        return -(-self.n_items // batch)
+        return -(-self.n_items // self.chunk_size(batch))
 
     def raw(self, i0: int, i1: int, dtype: type[np.floating]) -> NDArray[np.floating]:
         """Layer-1 input of items ``i0:i1`` as floats ``(n, H, W, 3)``."""
@@ -184,8 +189,10 @@ class Source:
         return a
 
     def chunks(self, batch: int) -> list[tuple[int, int]]:
-        """``[(i0, i1)]`` item ranges of at most ``batch`` items, in order."""
-        return [(i0, min(i0 + batch, self.n_items)) for i0 in range(0, self.n_items, batch)]
+        """``[(i0, i1)]`` item ranges of :meth:`chunk_size` items (fewer in the last), in
+        order."""
+        size = self.chunk_size(batch)
+        return [(i0, min(i0 + size, self.n_items)) for i0 in range(0, self.n_items, size)]
 
     def outputs(self, job: Pass, bar: tqdm) -> NDArray[np.floating]:
         """The input of the next layer for every item, stacked (to cache it)."""
@@ -334,17 +341,31 @@ class DenseRotationSource(Source):
     so the node columns of every rotated view are :func:`~sfa_gym.rotation.rotation_columns`
     of the dense grid (see :mod:`sfa_gym.sfa.network`).
 
+    With several appearances of each location (runs of ``A`` consecutive panoramas), the
+    views of a location follow :func:`~sfa_gym.rotation.rotation_sequence`: every (rotation,
+    node) pair is a sample of each of the ``A`` panoramas, as with one appearance; the time
+    differences are those between appearances at the same dense column, and the rotation steps
+    taken in the appearance the snake ends each rotation on.
+
     Args:
-        panoramas: ``(L, H, W, 3)`` uint8.
+        panoramas: ``(L * A, H, W, 3)`` uint8.
         step: rotation step in columns, a multiple of layer 1's column stride dividing ``W``.
         layers: the architecture.
+        appearances: ``A``, the panoramas of one location (consecutive).
     """
 
-    def __init__(self, panoramas: NDArray[np.uint8], step: int, layers: Sequence[LayerSpec]):
+    def __init__(
+        self,
+        panoramas: NDArray[np.uint8],
+        step: int,
+        layers: Sequence[LayerSpec],
+        appearances: int = 1,
+    ):
         w = panoramas.shape[2]
         s1 = layers[0].stride[1]
         self.panoramas = panoramas
         self.n_items = panoramas.shape[0]
+        self.item_group = appearances
         self.n1 = w // s1
         self.m = step // s1
         self.n_rot = w // step
@@ -395,15 +416,27 @@ class DenseRotationSource(Source):
 
     def accumulate(self, job, spec, grid, featurize, moments, bar) -> None:
         li = len(job.params)
-        n1, m, n_rot = self.n1, self.m, self.n_rot
+        n1, m, n_rot, n_app = self.n1, self.m, self.n_rot, self.item_group
         cols = self.node_columns(li, grid[1])  # (K, C): view k, node j
-        k = np.arange(n_rot)[:, None]
-        kk = np.broadcast_to(k, cols.shape).astype(np.float64)
+        order_k, order_a = rotation_sequence(n_rot, n_app)
+        # time of rotation k under appearance a within its location's sequence
+        position = np.empty((n_rot, n_app), dtype=np.float64)
+        position[order_k, order_a] = np.arange(n_rot * n_app)
         w = np.bincount(cols.ravel(), minlength=n1).astype(np.float64)
-        tk = np.bincount(cols.ravel(), weights=kk.ravel(), minlength=n1)
-        tk2 = np.bincount(cols.ravel(), weights=(kk**2).ravel(), minlength=n1)
-        pairs = np.bincount(cols[:-1].ravel(), minlength=n1).astype(np.float64)
+        tk = np.empty((n_app, n1))
+        tk2 = np.empty((n_app, n1))
+        for a in range(n_app):
+            t = np.broadcast_to(position[:, a : a + 1], cols.shape).ravel()
+            tk[a] = np.bincount(cols.ravel(), weights=t, minlength=n1)
+            tk2[a] = np.bincount(cols.ravel(), weights=t**2, minlength=n1)
+        # rotation k -> k + 1 is taken in the appearance rotation k ends on
+        ends = order_a[n_app - 1 :: n_app][:-1]
+        pairs = {
+            int(a): np.bincount(cols[:-1][ends == a].ravel(), minlength=n1).astype(np.float64)
+            for a in np.unique(ends)
+        }
         first, last = cols[0], cols[-1]
+        first_app, last_app = int(order_a[0]), int(order_a[-1])
         # linear SFA of layers 2, 3, ...: products from cross-correlations of the layer input
         sharing = job.sharing
         plans = None
@@ -416,42 +449,82 @@ class DenseRotationSource(Source):
                 "n_rows": grid[0],
                 "dilation": self.unit[li - 1],
             }
-            plans = (plan_weighted_gram(w, **geometry), plan_weighted_gram(pairs, **geometry))
-            if None in plans:
+            plans = {"samples": plan_weighted_gram(w, **geometry)}
+            plans.update({a: plan_weighted_gram(p, **geometry) for a, p in pairs.items()})
+            if None in plans.values():
                 plans = None
         following = self.next_view_columns()
 
-        def work(chunk: tuple[int, int], into: Moments) -> tuple[Moments, Any, Any]:
-            l0, l1 = chunk
-            a = self.layer_input(job, l0, l1)
-            x = featurize(self.node_inputs(li, spec, grid, a), sharing=sharing)
-            f, n_l, r, _ = x.shape  # (F, L, R, n1)
-            # view k = location * K + k is the time index of every node of that view
-            base = (np.arange(l0, l1, dtype=np.float64) * n_rot)[:, None, None]
-            shape = (n_l, r // into.n_groups, n1)  # the samples of one group
-            into.add_samples(
-                groups(x, sharing),
-                times=np.broadcast_to(base * w + tk, shape).ravel(),
-                weights=np.broadcast_to(w, shape).ravel(),
-                times_sq=np.broadcast_to(base**2 * w + 2 * base * tk + tk2, shape).ravel(),
-                outer=None if plans is None else plans[0].gram(a, lambda c: x[..., c])[None],
-            )
-            # consecutive views: dense column o -> following[o], weighted by how many node
-            # pairs; ``x[..., following] - x`` formed from two slices (a gather is slower)
-            if plans is None:
+        def add_rotation_steps(into: Moments, x, a_in, weights, plan) -> None:
+            """Consecutive views of the panoramas ``x`` ``(F, n, R, n1)``: dense column
+            ``o -> following[o]``, weighted by how many node pairs."""
+            n_l, r = x.shape[1], x.shape[2]
+            if plan is None:
+                # ``x[..., following] - x`` formed from two slices (a gather is slower)
                 d = np.empty_like(x)  # x's layout: groups(d) is a view too
                 np.subtract(x[..., m:], x[..., : n1 - m], out=d[..., : n1 - m])
                 np.subtract(x[..., :m], x[..., n1 - m :], out=d[..., n1 - m :])
-                into.add_differences(groups(d, sharing), np.broadcast_to(pairs, shape).ravel())
-                del d
-            else:
-                # the node inputs of the difference field are the differences of node inputs
-                da = np.take(a, following, axis=2) - a
-                outer = plans[1].gram(da, lambda c: x[..., following[c]] - x[..., c])
-                into.add_difference_moments(outer[None], n_l * r * float(pairs.sum()))
+                shape = (n_l, r // into.n_groups, n1)
+                into.add_differences(groups(d, sharing), np.broadcast_to(weights, shape).ravel())
+                return
+            # the node inputs of the difference field are the differences of node inputs
+            da = np.take(a_in, following, axis=2) - a_in
+            outer = plan.gram(da, lambda c: x[..., following[c]] - x[..., c])
+            into.add_difference_moments(outer[None], n_l * r * float(weights.sum()))
+
+        def add_appearance_steps(into: Moments, x, a_in) -> None:
+            """Consecutive views of one location under appearances ``b`` and ``b + 1``, at the
+            same rotation: the same dense column, every (rotation, node) pair once."""
+            for b in range(n_app - 1):
+                later, earlier = x[:, b + 1 :: n_app], x[:, b::n_app]
+                n_loc, r = later.shape[1], later.shape[2]
+                if plans is None:
+                    shape = (n_loc, r // into.n_groups, n1)
+                    into.add_differences(
+                        groups(later - earlier, sharing), np.broadcast_to(w, shape).ravel()
+                    )
+                    continue
+                da = a_in[b + 1 :: n_app] - a_in[b::n_app]
+                outer = plans["samples"].gram(
+                    da, lambda c, hi=later, lo=earlier: hi[..., c] - lo[..., c]
+                )
+                into.add_difference_moments(outer[None], n_loc * r * float(w.sum()))
+
+        def work(chunk: tuple[int, int], into: Moments) -> tuple[Moments, Any, Any]:
+            l0, l1 = chunk
+            a_in = self.layer_input(job, l0, l1)
+            x = featurize(self.node_inputs(li, spec, grid, a_in), sharing=sharing)
+            f, n_l, r, _ = x.shape  # (F, L, R, n1)
+            # view (location, position) has time index location * K * A + position
+            item = np.arange(l0, l1)
+            base = ((item // n_app) * (n_rot * n_app)).astype(np.float64)[:, None, None]
+            app = item % n_app
+            shape = (n_l, r // into.n_groups, n1)  # the samples of one group
+            into.add_samples(
+                groups(x, sharing),
+                times=np.broadcast_to(base * w + tk[app][:, None], shape).ravel(),
+                weights=np.broadcast_to(w, shape).ravel(),
+                times_sq=np.broadcast_to(
+                    base**2 * w + 2 * base * tk[app][:, None] + tk2[app][:, None], shape
+                ).ravel(),
+                outer=None
+                if plans is None
+                else plans["samples"].gram(a_in, lambda c: x[..., c])[None],
+            )
+            for a, weights in pairs.items():
+                add_rotation_steps(
+                    into,
+                    x[:, a::n_app],
+                    a_in[a::n_app],
+                    weights,
+                    None if plans is None else plans[a],
+                )
+            add_appearance_steps(into, x, a_in)
             # from the last view of one location to the first view of the next
-            if n_l > 1:
-                pair = take_cols(x[:, 1:], first), take_cols(x[:, :-1], last)
+            if n_l > n_app:
+                heads = x[:, n_app + first_app :: n_app]
+                tails = x[:, last_app : n_l - n_app : n_app]
+                pair = take_cols(heads, first), take_cols(tails, last)
                 if in_group_order(x, sharing):
                     d = grouped_empty(pair[0].shape, x.dtype, sharing)
                     np.subtract(*pair, out=d)
@@ -459,7 +532,12 @@ class DenseRotationSource(Source):
                     d = pair[0] - pair[1]
                 into.add_differences(groups(d, sharing))
             # copies: a view would keep the whole chunk alive until it is merged
-            return into, take_cols(x[:, :1], first).copy(), take_cols(x[:, -1:], last).copy()
+            tail = n_l - n_app + last_app
+            return (
+                into,
+                take_cols(x[:, first_app : first_app + 1], first).copy(),
+                take_cols(x[:, tail : tail + 1], last).copy(),
+            )
 
         self._accumulate_chunks(job, moments, work, lambda i0: True, bar)
 

@@ -55,7 +55,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from sfa_gym._types import check_panoramas, check_views
 from sfa_gym.capabilities import Capabilities
-from sfa_gym.rotation import check_window, n_rotations, rotation_columns
+from sfa_gym.rotation import check_window, n_rotations, rotation_columns, rotation_sequence
 from sfa_gym.sfa._heap import kept_heap
 from sfa_gym.sfa._layers import LayerParams
 from sfa_gym.sfa._parallel import n_workers, ordered_map, single_threaded_blas
@@ -266,12 +266,18 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         step: int = 5,
         window: int | None = None,
         method: str = "auto",
+        appearances: int = 1,
     ) -> HierarchicalSFA:
         """Train on all simulated rotations of each panorama, in the paper's order.
 
         The training sequence is views ``k = 0 .. K-1`` of location 0, then of location 1, ...
         (one continuous sequence), view ``k`` being ``np.roll(p, -k * step, axis=1)`` cropped to
-        its first ``window`` columns, ``K = W // step`` (:mod:`sfa_gym.rotation`).
+        its first ``window`` columns, ``K = W // step`` (:mod:`sfa_gym.rotation`). With
+        ``appearances = A > 1``, each run of ``A`` consecutive panoramas is one location seen
+        under ``A`` appearances (runs recorded at other times, interleaved frame by frame), and
+        each rotation of the location is seen under every appearance before the next
+        rotation (:func:`~sfa_gym.rotation.rotation_sequence`): the appearance changes inside
+        the location's rotation sequence, faster than the rotation.
 
         Args:
             panoramas: ``(L, H, W, 3)`` uint8, periodic in width.
@@ -280,6 +286,8 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
             method: ``"auto"`` (the shortcut when it applies, see :func:`shortcut_applies`),
                 ``"shortcut"`` (error if it does not apply) or ``"brute-force"`` (materialise
                 every view chunk by chunk).
+            appearances: how many consecutive panoramas show one location (at least 1; it
+                must divide their number).
         """
         layers = self._validated_layers()
         panoramas = check_views(panoramas, "panoramas", min_views=0)
@@ -288,6 +296,12 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         window = check_window(w, window)
         if method not in ("auto", "shortcut", "brute-force"):
             raise ValueError(f"method must be 'auto', 'shortcut' or 'brute-force', got {method!r}")
+        if isinstance(appearances, bool) or not isinstance(appearances, int) or appearances < 1:
+            raise ValueError(f"appearances must be a positive int, got {appearances!r}")
+        if n_loc % appearances:
+            raise ValueError(
+                f"{n_loc} panoramas are not whole locations of {appearances} appearances each"
+            )
         if n_loc * n_rot < 2:
             raise ValueError("need at least 2 training views (panoramas x rotations)")
         grids = self._grids(layers, h, window)
@@ -297,18 +311,20 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         if method == "brute-force" or why_not:
             n = n_loc * n_rot
             columns = rotation_columns(w, step, window)  # (K, window)
+            order_k, order_a = rotation_sequence(n_rot, appearances)
 
             def get(i0: int, i1: int) -> NDArray[np.uint8]:
                 idx = np.arange(i0, i1)
-                loc, k = idx // n_rot, idx % n_rot
-                return panoramas[loc[:, None], :, columns[k]].transpose(0, 2, 1, 3)
+                place, j = idx // len(order_k), idx % len(order_k)
+                panorama = place * appearances + order_a[j]
+                return panoramas[panorama[:, None], :, columns[order_k[j]]].transpose(0, 2, 1, 3)
 
             starts = np.zeros(n, dtype=bool)
             starts[0] = True
             source: Source = ViewSource(get, n, starts)
             fit_method = "rotations-brute-force"
         else:
-            source = DenseRotationSource(panoramas, step, layers)
+            source = DenseRotationSource(panoramas, step, layers, appearances)
             fit_method = "rotations-shortcut"
         self._train(layers, grids, (h, window, 3), source)
         self.fit_method_ = fit_method
