@@ -1,6 +1,6 @@
 """Markdown tables of the localization studies' files (``studies/paper_pipeline.py``,
-``studies/release_drift.py``): rows of settings, each cell a mean over world seeds with its
-95 % interval (:func:`sfa_gym.intervals.mean_entry`)."""
+``studies/release_drift.py``, ``studies/appearance_order.py``): rows of settings, each cell
+a mean over world seeds with its 95 % interval (:func:`sfa_gym.intervals.mean_entry`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from typing import Any
 
 from sfa_gym.report.formatters import _head, _row
 
-__all__ = ["paper_pipeline_table", "release_drift_table"]
+__all__ = ["appearance_order_table", "paper_pipeline_table", "release_drift_table"]
 
 
 def _mean_cell(entry: dict[str, Any]) -> str:
@@ -67,4 +67,33 @@ def release_drift_table(files: Sequence[dict[str, Any]], options: dict[str, str]
                     _mean_cell(e) for m in ("sfa", "fft_magnitude") for e in row[m][column][part]
                 ]
                 lines.append(_row([code, views, regression, *cells]))
+    return "\n".join(lines)
+
+
+_ORDER_ROWS = {
+    "one": "the training run alone",
+    "frames": "+ a run 3 h earlier, frame by frame",
+    "rotations": "+ a run 3 h earlier, inside each frame's rotations",
+}
+_ORDER_REGRESSIONS = {"linear": "linear", "quadratic": "quadratic", "map": "map decoder"}
+
+
+def appearance_order_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """SFA on the outdoor protocol trained on one run, or on two runs whose appearances meet
+    frame by frame or inside each frame's rotations (``studies/appearance_order.py``): MAE %
+    (mean of x and y) per test condition and over the changed conditions, the mean over the
+    world seeds with its 95 % interval, and SFA's largest variance over the headings of a
+    place (``eta_phi``, mean over the worlds)."""
+    lines: list[str] = []
+    for data in files:
+        conditions = data["conditions"]
+        changed = [c for c in conditions if c != "after"]
+        head = ["training", "regression", *conditions, "mean of " + ", ".join(changed)]
+        lines += _head([*head, "max eta_phi"])
+        for regression, label in _ORDER_REGRESSIONS.items():
+            for setting, training in _ORDER_ROWS.items():
+                row = data["rows"][setting]
+                cells = [_mean_cell(row[regression][c]) for c in (*conditions, "changed_mean")]
+                eta = row["max_eta_phi"]
+                lines.append(_row([training, label, *cells, f"{eta['mean']:.4f}"]))
     return "\n".join(lines)

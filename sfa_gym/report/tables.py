@@ -77,6 +77,7 @@ GENERATORS: dict[str, Generator] = {
     "textures-build": formatters.textures_build_table,
     "paper-pipeline": study_formatters.paper_pipeline_table,
     "release-drift": study_formatters.release_drift_table,
+    "appearance-order": study_formatters.appearance_order_table,
     "sfa-engine": formatters.sfa_engine_table,
     "leaderboard-timings": formatters.leaderboard_timings_table,
     "equivariance": formatters.equivariance_table,
@@ -91,8 +92,8 @@ track), ``nav-sets``
 ``quick-vs-full`` (the quick board's ranks against the full one's), ``descent-bound``,
 ``nav-steps``, ``outdoor-cost`` (also the textures' cost per step), ``image-statistics``,
 ``appearance-change``, ``textures-build``, ``sfa-engine``, ``leaderboard-timings`` and
-``equivariance`` (:mod:`sfa_gym.report.formatters`); ``paper-pipeline`` and ``release-drift``
-(the localization studies: :mod:`sfa_gym.report.study_formatters`)."""
+``equivariance`` (:mod:`sfa_gym.report.formatters`); ``paper-pipeline``, ``release-drift``
+and ``appearance-order`` (the localization studies: :mod:`sfa_gym.report.study_formatters`)."""
 
 _BLOCK = re.compile(
     r"<!-- generated: (?P<spec>[^\n]*?) -->\n(?P<body>.*?)<!-- end generated -->", re.DOTALL
