@@ -97,14 +97,6 @@ def test_shortcut_gives_the_same_model_as_brute_force(appearances, step, batch, 
     np.testing.assert_allclose(fast.delta_values_, slow.delta_values_, rtol=1e-7)
 
 
-def test_one_appearance_is_the_paper_order_bit_for_bit():
-    pans = _places(8, 1)
-    a = _net(batch_size=3).fit_rotations(pans, step=2)
-    b = _net(batch_size=3).fit_rotations(pans, step=2, appearances=1)
-    for p, q in zip(a.layer_params_, b.layer_params_, strict=True):
-        assert np.array_equal(p.expand.weight, q.expand.weight)
-
-
 def test_appearances_inside_the_rotation_sequence_are_ignored():
     """Trained on two lights inside each place's rotations, the features barely differ between
     the lights at the same place and rotation; trained on one light they do."""
