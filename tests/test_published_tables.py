@@ -118,6 +118,10 @@ def test_board_intervals_and_seconds_come_from_the_file():
     seconds = board_seconds_table(files, {"methods": "m,n"}).splitlines()
     assert seconds[2] == "| `t` | 15 | - |"  # the mean of a world seed; unrecorded: none
     assert seconds[3] == "| these tracks, min | 0 | 0 |"
+    record["task_phases"] = [{"render": 4.0, "fit": 120.0}, {"fit": 240.0}]
+    fits = board_seconds_table([{"results": [record]}], {"phase": "fit"}).splitlines()
+    assert fits[0] == "| track: fit s per world seed | m |"
+    assert fits[2:] == ["| `t` | 180 |", "| these tracks, min | 6 |"]
 
 
 def test_navigation_controllers_show_success_and_spl_from_the_file():
