@@ -166,3 +166,24 @@ def test_the_isolated_sfa_plugin_takes_the_appearances():
     np.testing.assert_array_equal(got, inside.transform_rotations(pans, 5))
     once = fit_method(load_method_plugin(path)(**args), pans, Rotation())
     assert not np.allclose(once.transform_rotations(pans, 5), got, atol=1e-3)
+
+
+def test_shortcut_with_a_cropped_window_gives_the_brute_force_model():
+    from sfa_gym.sfa import LayerSpec, layer_grids, shortcut_applies
+
+    l1 = LayerSpec(field=(4, 4), stride=(2, 2), reduce_dim=6, out_dim=8, wrap=False)
+    l2 = LayerSpec(field=(2, 4), stride=(2, 3), reduce_dim=6, out_dim=8, wrap=False)
+    grid = layer_grids([l1, l2], H, 24)[-1]
+    layers = [l1, l2, LayerSpec(field=grid, stride=grid, reduce_dim=6, out_dim=8, wrap=False)]
+    assert shortcut_applies(layers, W, step=2, window=24)
+    pans = _places(4, 2, seed=9)
+
+    def fit(method: str, batch: int | None) -> HierarchicalSFA:
+        net = HierarchicalSFA(layers, n_outputs=4, dtype="float64", progress=False)
+        net.set_params(batch_size=batch)
+        return net.fit_rotations(pans, step=2, window=24, method=method, appearances=2)
+
+    fast, slow = fit("shortcut", 3), fit("brute-force", None)
+    assert fast.fit_method_ == "rotations-shortcut"
+    views = rotated_views(pans, 2, 24)[0].reshape(-1, H, 24, 3)
+    np.testing.assert_allclose(fast.transform(views), slow.transform(views), atol=1e-7)

@@ -438,9 +438,11 @@ class DenseRotationSource(Source):
         first, last = cols[0], cols[-1]
         first_app, last_app = int(order_a[0]), int(order_a[-1])
         # linear SFA of layers 2, 3, ...: products from cross-correlations of the layer input
+        # (for one appearance: the rotation steps of several are weighted unevenly over the
+        # dense columns, which such a plan rarely fits)
         sharing = job.sharing
         plans = None
-        if featurize is features_first and li > 0 and sharing == "layer":
+        if featurize is features_first and li > 0 and sharing == "layer" and n_app == 1:
             geometry = {
                 "rows_in": job.params[-1].grid[0],
                 "channels": job.params[-1].out_dim,
@@ -472,23 +474,13 @@ class DenseRotationSource(Source):
             outer = plan.gram(da, lambda c: x[..., following[c]] - x[..., c])
             into.add_difference_moments(outer[None], n_l * r * float(weights.sum()))
 
-        def add_appearance_steps(into: Moments, x, a_in) -> None:
+        def add_appearance_steps(into: Moments, x) -> None:
             """Consecutive views of one location under appearances ``b`` and ``b + 1``, at the
             same rotation: the same dense column, every (rotation, node) pair once."""
             for b in range(n_app - 1):
-                later, earlier = x[:, b + 1 :: n_app], x[:, b::n_app]
-                n_loc, r = later.shape[1], later.shape[2]
-                if plans is None:
-                    shape = (n_loc, r // into.n_groups, n1)
-                    into.add_differences(
-                        groups(later - earlier, sharing), np.broadcast_to(w, shape).ravel()
-                    )
-                    continue
-                da = a_in[b + 1 :: n_app] - a_in[b::n_app]
-                outer = plans["samples"].gram(
-                    da, lambda c, hi=later, lo=earlier: hi[..., c] - lo[..., c]
-                )
-                into.add_difference_moments(outer[None], n_loc * r * float(w.sum()))
+                d = x[:, b + 1 :: n_app] - x[:, b::n_app]
+                shape = (d.shape[1], d.shape[2] // into.n_groups, n1)
+                into.add_differences(groups(d, sharing), np.broadcast_to(w, shape).ravel())
 
         def work(chunk: tuple[int, int], into: Moments) -> tuple[Moments, Any, Any]:
             l0, l1 = chunk
@@ -519,7 +511,7 @@ class DenseRotationSource(Source):
                     weights,
                     None if plans is None else plans[a],
                 )
-            add_appearance_steps(into, x, a_in)
+            add_appearance_steps(into, x)
             # from the last view of one location to the first view of the next
             if n_l > n_app:
                 heads = x[:, n_app + first_app :: n_app]
