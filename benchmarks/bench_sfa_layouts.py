@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import tyro
 
+import sfa_gym.sfa._rotation_source as rotation_source
 import sfa_gym.sfa._sources as sources
 import sfa_gym.sfa._training as training
 from sfa_gym.files import write_json_atomic
@@ -70,13 +71,16 @@ def previous_layouts() -> Iterator[None]:
     ) -> np.ndarray:
         return self.nodes(self.patches(a, n_cols, col_stride, col_dilation), clip)
 
+    # every module that holds features_first: the rotation source compares the featurize it
+    # is given with its own (the plain linear-SFA pass)
     saved = [
         (sources, "features_first", sources.features_first),
+        (rotation_source, "features_first", rotation_source.features_first),
         (training, "features_first", training.features_first),
         (training, "reduce_and_expand", training.reduce_and_expand),
         (LayerParams, "forward", LayerParams.forward),
     ]
-    sources.features_first = training.features_first = natural
+    sources.features_first = rotation_source.features_first = training.features_first = natural
     training.reduce_and_expand = expanded
     LayerParams.forward = forward
     try:

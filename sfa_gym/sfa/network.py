@@ -37,7 +37,7 @@ work) whose input is images ``(N, H, W, 3)`` uint8 rather than a 2-d ``X``. Savi
 Rotation shortcut (:meth:`HierarchicalSFA.fit_rotations` and ``transform_rotations``): with
 weight sharing (per layer or per row) and a rotation step that is a multiple of layer 1's column
 stride, every rotated view of a panorama is covered by running each layer once per panorama on
-a dense periodic grid (:mod:`sfa_gym.sfa._sources`). It gives the same model as training on
+a dense periodic grid (:mod:`sfa_gym.sfa._rotation_source`). It gives the same model as training on
 every rotated view (tested), at a fraction of the cost.
 """
 
@@ -59,14 +59,12 @@ from sfa_gym.rotation import check_window, n_rotations, rotation_columns, rotati
 from sfa_gym.sfa._heap import kept_heap
 from sfa_gym.sfa._layers import LayerParams
 from sfa_gym.sfa._parallel import n_workers, ordered_map, single_threaded_blas
-from sfa_gym.sfa._sources import (
+from sfa_gym.sfa._rotation_source import (
     DenseRotationSource,
-    Pass,
-    Source,
-    ViewSource,
     shortcut_applies,
     shortcut_obstacle,
 )
+from sfa_gym.sfa._sources import Pass, Source, ViewSource
 from sfa_gym.sfa._training import chunk_size, item_bytes, layer_clips, train_layers
 from sfa_gym.sfa._weights import (
     WEIGHT_SHARING,
