@@ -30,6 +30,7 @@ __all__ = [
     "check_indices",
     "check_step",
     "check_window",
+    "count_places",
     "n_rotations",
     "rotation_angles",
     "rotation_columns",
@@ -118,12 +119,32 @@ def rotation_sequence(
     """
     if not _is_int(n_rot) or n_rot < 1:
         raise ValueError(f"n_rot must be a positive int, got {n_rot!r}")
-    if not _is_int(appearances) or appearances < 1:
-        raise ValueError(f"appearances must be a positive int, got {appearances!r}")
+    _check_appearances(appearances)
     k = np.repeat(np.arange(n_rot, dtype=np.intp), appearances)
     forward = np.tile(np.arange(appearances, dtype=np.intp), n_rot)
     a = np.where(k % 2 == 0, forward, appearances - 1 - forward)
     return k, a
+
+
+def count_places(n_panoramas: int, appearances: int) -> int:
+    """How many places ``n_panoramas`` consecutive panoramas show when each place is a run of
+    ``appearances`` of them (see :func:`rotation_sequence`).
+
+    Raises:
+        ValueError: ``appearances`` is not a positive int, or the panoramas are not whole
+            places.
+    """
+    _check_appearances(appearances)
+    if n_panoramas % appearances:
+        raise ValueError(
+            f"{n_panoramas} panoramas are not whole locations of {appearances} appearances each"
+        )
+    return n_panoramas // appearances
+
+
+def _check_appearances(appearances: int) -> None:
+    if not _is_int(appearances) or appearances < 1:
+        raise ValueError(f"appearances must be a positive int, got {appearances!r}")
 
 
 def rotation_angles(

@@ -16,7 +16,7 @@ from sfa_gym.capabilities import get_capabilities
 from sfa_gym.localization import eta_phi, eta_r
 from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod
-from sfa_gym.rotation import Rotation, rotation_sequence
+from sfa_gym.rotation import Rotation, count_places, rotation_sequence
 
 __all__ = [
     "VIEWS_PER_BLOCK",
@@ -120,10 +120,7 @@ def training_views(
     training sequence ``(N, H, W', 3)``: location by location, and within a location in the
     order of :func:`~sfa_gym.rotation.rotation_sequence` over its ``appearances``
     consecutive panoramas (the rotations in order for one)."""
-    if len(panoramas) % appearances:
-        raise ValueError(
-            f"{len(panoramas)} panoramas are not whole locations of {appearances} appearances"
-        )
+    count_places(len(panoramas), appearances)
     views = rotation.views(panoramas, indices)[0]  # (L, K', H, W', 3)
     k, a = rotation_sequence(views.shape[1], appearances)
     places = views.reshape(-1, appearances, *views.shape[1:])

@@ -55,7 +55,13 @@ from sklearn.utils.validation import check_is_fitted
 
 from sfa_gym._types import check_panoramas, check_views
 from sfa_gym.capabilities import Capabilities
-from sfa_gym.rotation import check_window, n_rotations, rotation_columns, rotation_sequence
+from sfa_gym.rotation import (
+    check_window,
+    count_places,
+    n_rotations,
+    rotation_columns,
+    rotation_sequence,
+)
 from sfa_gym.sfa._heap import kept_heap
 from sfa_gym.sfa._layers import LayerParams
 from sfa_gym.sfa._parallel import n_workers, ordered_map, single_threaded_blas
@@ -294,12 +300,7 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         window = check_window(w, window)
         if method not in ("auto", "shortcut", "brute-force"):
             raise ValueError(f"method must be 'auto', 'shortcut' or 'brute-force', got {method!r}")
-        if isinstance(appearances, bool) or not isinstance(appearances, int) or appearances < 1:
-            raise ValueError(f"appearances must be a positive int, got {appearances!r}")
-        if n_loc % appearances:
-            raise ValueError(
-                f"{n_loc} panoramas are not whole locations of {appearances} appearances each"
-            )
+        count_places(n_loc, appearances)
         if n_loc * n_rot < 2:
             raise ValueError("need at least 2 training views (panoramas x rotations)")
         grids = self._grids(layers, h, window)
