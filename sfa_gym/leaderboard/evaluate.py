@@ -26,6 +26,7 @@ from sfa_gym.phases import measure
 from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
 from sfa_gym.sandbox import IN_PROCESS, Limits, isolation, plugins_isolated
+from sfa_gym.source_hash import check_sources
 
 __all__ = [
     "HIGHER_IS_BETTER",
@@ -68,6 +69,9 @@ class Task:
         also_score: grid tracks: evaluations scored in the same run besides the track's own
             (other tracks' tasks, :func:`~sfa_gym.protocols.grid.scored_together`); their task
             scores go to the outcome's ``shared``, the track's own scores are unchanged.
+        code_sha256: the hash of the ``sfa_gym`` sources the sweep started with
+            (:func:`~sfa_gym.source_hash.package_sources_sha256`); the task fails when the
+            sources it finds at its start or end differ (None: no check).
     """
 
     track_path: str
@@ -82,6 +86,7 @@ class Task:
     memory_limit_mb: int | None = None
     concurrent_tasks: int | None = 1
     also_score: tuple[str, ...] = ()
+    code_sha256: str | None = None
 
 
 def task_limits(track: Track, task: Task) -> Limits:
@@ -155,6 +160,7 @@ def run_task(task: Task) -> dict[str, Any]:
 
 def _run_task(task: Task) -> dict[str, Any]:
     started = time.perf_counter()
+    check_sources(task.code_sha256, "at the task's start")
     track = load_track(task.track_path)
     seeds, _ = track.sized(task.quick)
     if task.world_seed not in seeds:
@@ -184,6 +190,8 @@ def _run_task(task: Task) -> dict[str, Any]:
     finally:
         for plugin in workers:
             plugin.close()
+    # a module imported during the task (most are imported lazily) came from these sources
+    check_sources(task.code_sha256, "at the task's end")
     return {
         "world_seed": task.world_seed,
         "fit_world_seed": track.fit_world_seed(task.world_seed),

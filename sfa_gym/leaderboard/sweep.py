@@ -42,6 +42,7 @@ from sfa_gym.plugin_files import Kind
 from sfa_gym.plugins import file_sha256, load_plugin
 from sfa_gym.recording.cache import RunCache
 from sfa_gym.sandbox import Limits, check_memory_mb, check_time_limits, describe_plugin
+from sfa_gym.source_hash import package_sources_sha256
 
 __all__ = ["SweepError", "run_sweep"]
 
@@ -130,6 +131,8 @@ def run_sweep(
     if memory_limit_mb is not None:
         limits["memory_limit_mb"] = check_memory_mb(memory_limit_mb, "--memory-limit-mb")
     limits["concurrent_tasks"] = concurrent_tasks(backend, address, num_cpus)
+    # every task checks that it runs on these sources (sfa_gym.source_hash)
+    limits["code_sha256"] = code = package_sources_sha256()
     # the plug-ins' workers must not read the render cache or the results either
     hidden = [RunCache(cache_dir).root, Path(results_dir)]
     driver = None if controller is None else _describe_controller(tracks, *controller, hidden)
@@ -211,7 +214,7 @@ def run_sweep(
     tasks = [replace(planned[i].task, also_score=tuple(also[i])) for i in todo]
     try:
         for j, outcome in run_each(tasks, backend, address=address, num_cpus=num_cpus):
-            record(todo[j], outcome, task_provenance(backend, commit))
+            record(todo[j], outcome, task_provenance(backend, commit, code))
     except KeyboardInterrupt:
         say(
             f"interrupted: {len(finished)} of {len(planned)} task(s) finished and kept under "
@@ -331,7 +334,8 @@ def _plan(
     limits: dict[str, Any],
 ) -> list[_Planned]:
     """The sweep's tasks, track by track, method by method, world seed by world seed;
-    ``limits`` are the :class:`~sfa_gym.leaderboard.evaluate.Task` fields of the run's limits."""
+    ``limits`` are the :class:`~sfa_gym.leaderboard.evaluate.Task` fields every task shares
+    (the run's limits, the sources' hash)."""
     cache = None if cache_dir is None else str(Path(cache_dir).resolve())
     planned = []
     for t, track in enumerate(tracks):

@@ -9,7 +9,8 @@ SIGTERM, SIGKILL, a dead Ray worker) keeps every finished task and a rerun resum
                   "method": {"name", "sha256", "args"}, "controller": null | {...}},
      "output": {"world_seed", "fit_world_seed", "scores", "seconds", "phases"} | null,
      "failure": {"type", "message", "attempts"} | null,
-     "provenance": {"sfa_gym_version", "git_commit", "backend", "node", "created"}}
+     "provenance": {"sfa_gym_version", "git_commit", "code_sha256", "backend", "node",
+                    "created"}}
 
 A rerun reuses a task's output only when the file's ``identity`` is the task's: the same track
 version and content at the task's size (``sha256`` of the track file's content with the
@@ -100,12 +101,16 @@ def task_file(results: Path, track: str, label: str, quick: bool, world_seed: in
     return pair.with_suffix("") / f"{world_seed}.json"
 
 
-def task_provenance(backend: str, git_commit: str | None) -> dict[str, Any]:
-    """Where and when a task was run: the package version and commit, the backend, the machine
-    that wrote the file, the time."""
+def task_provenance(
+    backend: str, git_commit: str | None, code_sha256: str | None = None
+) -> dict[str, Any]:
+    """Where and when a task was run: the package version, commit and sources' hash
+    (:func:`~sfa_gym.source_hash.package_sources_sha256`, which tells an uncommitted edit from
+    its commit), the backend, the machine that wrote the file, the time."""
     return {
         "sfa_gym_version": sfa_gym.__version__,
         "git_commit": git_commit,
+        "code_sha256": code_sha256,
         "backend": backend,
         "node": platform.node(),
         "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),

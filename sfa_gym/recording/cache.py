@@ -47,6 +47,8 @@ from typing import Any
 
 import platformdirs
 
+from sfa_gym.source_hash import sources_sha256
+
 __all__ = [
     "RENDERING_VERSION",
     "RunCache",
@@ -88,18 +90,10 @@ def rendering_code_sha256(root: str | os.PathLike[str] | None = None) -> str:
     the MuJoCo version: what, besides the request, makes the pixels."""
     if root is None:
         return _installed_code_sha256()
-    root = Path(root)
     # the version from the distribution's metadata: importing mujoco here, before the GL
     # backend is chosen (sim.gl.configure), would fix MuJoCo on GLFW for the whole process
-    digest = hashlib.sha256(f"mujoco {importlib.metadata.version('mujoco')}\n".encode())
-    for package in _RENDERING_PACKAGES:
-        sources = sorted((root / package).rglob("*.py"))
-        if not sources:
-            raise FileNotFoundError(f"no Python sources under {root / package}")
-        for path in sources:
-            digest.update(path.relative_to(root).as_posix().encode() + b"\0")
-            digest.update(path.read_bytes() + b"\0")
-    return digest.hexdigest()
+    mujoco = f"mujoco {importlib.metadata.version('mujoco')}\n".encode()
+    return sources_sha256(root, _RENDERING_PACKAGES, head=mujoco)
 
 
 @functools.cache
