@@ -11,6 +11,7 @@ import multiprocessing
 import os
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +56,26 @@ def _write_track(folder: Path, data: dict) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{data['name']}.json"
     path.write_text(json.dumps(data))
+    return path
+
+
+def band_means_fitting(path: Path, body: str) -> Path:
+    """Write band_means at ``path`` with the statements ``body`` run first in its ``fit``."""
+    statements = textwrap.indent(textwrap.dedent(body).strip(), " " * 8)
+    path.write_text(
+        BAND_MEANS.read_text()
+        + f"""
+
+class Variant(BandMeans):
+    def fit(self, views, sequence_ids=None):
+{statements}
+        return super().fit(views, sequence_ids)
+
+
+def make_method(**args):
+    return Variant(**args)
+"""
+    )
     return path
 
 

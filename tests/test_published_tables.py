@@ -91,7 +91,8 @@ def test_regenerate_fills_an_empty_table_from_its_file(tmp_path):
 
 
 def test_board_intervals_and_seconds_come_from_the_file():
-    from sfa_gym.report.formatters import board_seconds_table, board_table
+    from sfa_gym.report.cost_formatters import board_memory_table, board_seconds_table
+    from sfa_gym.report.formatters import board_table
 
     record = {
         "track": "t",
@@ -122,6 +123,14 @@ def test_board_intervals_and_seconds_come_from_the_file():
     fits = board_seconds_table([{"results": [record]}], {"phase": "fit"}).splitlines()
     assert fits[0] == "| track: fit s per world seed | m |"
     assert fits[2:] == ["| `t` | 180 |", "| these tracks, min | 6 |"]
+    record["task_peak_rss_mb"] = [
+        {"evaluator": 512.0, "plugins": 1024.0},
+        {"evaluator": 2048.0, "plugins": 768.0},
+    ]
+    unrecorded = {**record, "method": "n", "task_peak_rss_mb": [None, None]}
+    memory = board_memory_table([{"results": [record, unrecorded]}], {}).splitlines()
+    assert memory[0] == "| track: peak GiB, plug-in (evaluator) | m | n |"
+    assert memory[2] == "| `t` | 1.00 (2.00) | - |"  # the largest over the world seeds
 
 
 def test_navigation_controllers_show_success_and_spl_from_the_file():

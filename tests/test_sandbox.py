@@ -206,27 +206,13 @@ def test_a_controller_never_receives_ground_truth(tmp_path):
     assert action.tolist() == [0.0, float(len(ROVER_SENSORS)), -1.0]
 
 
-SLOW_FIT = """
-
-class SlowFit(BandMeans):
-    def fit(self, views, sequence_ids=None):
-        import time
-        time.sleep(600)
-
-
-def make_method(**args):
-    return SlowFit(**args)
-"""
-
-
 def test_a_leaderboard_task_runs_its_method_isolated_with_its_time_limits(tmp_path):
-    from test_leaderboard import TINY, _write_track
+    from test_leaderboard import TINY, _write_track, band_means_fitting
 
     from sfa_gym.leaderboard.evaluate import Task, run_task
 
     track = str(_write_track(tmp_path / "tracks", TINY))
-    slow = tmp_path / "slow.py"
-    slow.write_text(BAND_MEANS.read_text() + SLOW_FIT)
+    slow = band_means_fitting(tmp_path / "slow.py", "import time\ntime.sleep(600)")
     cache = str(tmp_path / "cache")
     with pytest.raises(PluginTimeout, match=r"slow\.py took longer than its limit of 2 s for fit"):
         run_task(Task(track, str(slow), {}, 100, cache_dir=cache, time_limits={"fit": 2}))

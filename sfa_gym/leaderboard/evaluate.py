@@ -22,6 +22,7 @@ from typing import Any
 from threadpoolctl import threadpool_limits
 
 from sfa_gym.leaderboard.tracks import Track, load_track, protocol_module
+from sfa_gym.memory import own_peak_mb, reset_own_peak
 from sfa_gym.phases import measure
 from sfa_gym.plugins import load_method
 from sfa_gym.recording.cache import RunCache
@@ -146,15 +147,20 @@ def _controller(
 
 def run_task(task: Task) -> dict[str, Any]:
     """Evaluate ``task``; returns ``{"world_seed", "fit_world_seed", "scores", "seconds",
-    "phases"}``.
+    "phases", "peak_rss_mb"}``.
 
     ``scores["score"]`` is the track's score (see the module docstring); the other entries are
     its parts. ``seconds`` is the wall time of the task (renders included when the cache had
     no entry yet), ``phases`` its parts (:mod:`sfa_gym.phases`: render, fit, features, episodes,
-    other; the plug-in's calls counted where the evaluator waits for them).
+    other; the plug-in's calls counted where the evaluator waits for them). ``peak_rss_mb``
+    (:mod:`sfa_gym.memory`) holds the peak resident memory, MiB, of the evaluator during the
+    task and the largest of its plug-in workers' (``plugins``: None when the plug-ins ran in the
+    evaluator's process, whose peak then includes theirs).
     """
+    reset_own_peak()  # a Ray worker runs many tasks: this one's peak only
     with measure() as phases:
         out = _run_task(task)
+    out["peak_rss_mb"] = {"evaluator": own_peak_mb(), **out["peak_rss_mb"]}
     return {**out, "phases": phases.as_dict()}
 
 
@@ -190,6 +196,7 @@ def _run_task(task: Task) -> dict[str, Any]:
     finally:
         for plugin in workers:
             plugin.close()
+    peaks = [p.peak_rss_mb for p in workers if p.peak_rss_mb is not None]
     # a module imported during the task (most are imported lazily) came from these sources
     check_sources(task.code_sha256, "at the task's end")
     return {
@@ -198,6 +205,7 @@ def _run_task(task: Task) -> dict[str, Any]:
         "scores": significant(scores),
         "seconds": round(time.perf_counter() - started, 2),
         "isolation": isolation(),
+        "peak_rss_mb": {"plugins": max(peaks) if peaks else None},
     } | ({"shared": significant(shared)} if shared else {})
 
 

@@ -8,7 +8,8 @@ A result file ``<results>/<track>/<method label>[.quick].json`` holds::
      "method": {"name", "path", "sha256", "args"},
      "score": {"mean", "ci95": [lo, hi] | null, "interval": "t-clipped", "n", "std",
                "higher_is_better"},
-     "tasks": [{"world_seed", "fit_world_seed", "scores": {...}, "seconds", "phases"}, ...],
+     "tasks": [{"world_seed", "fit_world_seed", "scores": {...}, "seconds", "phases",
+                "peak_rss_mb": {"evaluator", "plugins"}}, ...],
      "provenance": {"sfa_gym_version", "git_commit", "python", "platform", "machine",
                     "cpus", "backend", "created", "seconds", "versions", "cpu_numerics"}}
 
@@ -273,6 +274,7 @@ def gathered_entry(result: dict[str, Any]) -> dict[str, Any]:
         **({"spl": spl} if (spl := navigation_spl(result)) is not None else {}),
         "task_seconds": [t.get("seconds") for t in tasks],
         "task_phases": [t.get("phases") for t in tasks],
+        "task_peak_rss_mb": [t.get("peak_rss_mb") for t in tasks],
         "result_sha256": result.get("content_sha256"),
         "isolation": sorted({str(t.get("isolation")) for t in tasks}),
         **{k: provenance.get(k) for k in _GATHERED_PROVENANCE},

@@ -22,7 +22,6 @@ from sfa_gym.intervals import format_interval
 __all__ = [
     "appearance_change_table",
     "board_parts_table",
-    "board_seconds_table",
     "board_time_table",
     "board_table",
     "descent_bound_table",
@@ -149,41 +148,6 @@ def quick_vs_full_table(files: Sequence[dict[str, Any]], options: dict[str, str]
             *(" > ".join(row[k]) for k in ("quick_order", "full_order")),
         ]
         lines.append(_row([f"`{row['track']}`", *cells]))
-    return "\n".join(lines)
-
-
-def board_seconds_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
-    """The seconds a board's tasks took, from its file's ``task_seconds``: tracks as rows,
-    methods as columns, the mean seconds of a world seed's task (renders included where that
-    task rendered) and, in the last row, each method's whole board (every task, one after
-    the other). Options: ``tracks=a,b``, ``methods=a,b`` as for :func:`board_table`;
-    ``phase=fit`` (or another phase of ``task_phases``): that phase's seconds only."""
-    records = _records(files, "board-seconds")
-    tracks = _split(options.get("tracks")) or list(dict.fromkeys(r["track"] for r in records))
-    methods = _split(options.get("methods")) or list(dict.fromkeys(r["method"] for r in records))
-    phase = options.get("phase")
-    if phase is None:
-        cells = {(r["track"], r["method"]): r["task_seconds"] for r in records}
-    else:
-        cells = {
-            (r["track"], r["method"]): [p.get(phase) if p else None for p in r["task_phases"]]
-            for r in records
-            if r.get("task_phases")
-        }
-    title = "track: s per world seed" if phase is None else f"track: {phase} s per world seed"
-    lines = _head([title, *methods])
-    total = dict.fromkeys(methods, 0.0)
-    for t in tracks:
-        row = [f"`{t}`"]
-        for m in methods:
-            seconds = cells.get((t, m))
-            if not seconds or None in seconds:
-                row.append("-")
-                continue
-            total[m] += sum(seconds)
-            row.append(f"{sum(seconds) / len(seconds):.0f}")
-        lines.append(_row(row))
-    lines.append(_row(["these tracks, min", *(f"{total[m] / 60:.0f}" for m in methods)]))
     return "\n".join(lines)
 
 

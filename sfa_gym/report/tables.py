@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sfa_gym.report import formatters, study_formatters
+from sfa_gym.report import cost_formatters, formatters, study_formatters
 
 __all__ = [
     "GENERATORS",
@@ -65,7 +65,8 @@ GENERATORS: dict[str, Generator] = {
     "board": formatters.board_table,
     "board-parts": formatters.board_parts_table,
     "nav-controllers": formatters.nav_controllers_table,
-    "board-seconds": formatters.board_seconds_table,
+    "board-seconds": cost_formatters.board_seconds_table,
+    "board-memory": cost_formatters.board_memory_table,
     "board-time": formatters.board_time_table,
     "quick-vs-full": formatters.quick_vs_full_table,
     "nav-sets": formatters.nav_sets_table,
@@ -84,8 +85,9 @@ GENERATORS: dict[str, Generator] = {
 }
 """Formatters by the name a marker gives: ``localization`` (a localization protocol's
 ``results.json``, :func:`sfa_gym.experiments.report.format_table`), ``navigation`` (the
-navigation protocol's ``results.json``), ``board``, ``board-parts`` and ``board-seconds``
-(the leaderboard's reference board), ``nav-controllers`` (success and SPL of navigation
+navigation protocol's ``results.json``), ``board`` and ``board-parts`` (the leaderboard's
+reference board), ``board-seconds`` and ``board-memory`` (what its tasks cost:
+:mod:`sfa_gym.report.cost_formatters`), ``nav-controllers`` (success and SPL of navigation
 results, controllers beside the gradient controller), ``board-time`` (a sweep's time per
 track), ``nav-sets``
 (navigation studies' episode sets),

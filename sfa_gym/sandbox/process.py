@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from sfa_gym.memory import tree_peak_mb
 from sfa_gym.sandbox.wire import WireError, decode, encode
 
 __all__ = [
@@ -252,6 +253,9 @@ class Worker:
     ) -> None:
         self.label = label
         self.memory_mb = memory_mb
+        self.peak_rss_mb: float | None = None
+        """the worker's peak RSS, MiB, read when it is stopped
+        (:func:`~sfa_gym.memory.tree_peak_mb`)"""
         self.process: subprocess.Popen[bytes] | None
         self.process, self.scratch = _take_spare(
             tuple(Path(h).resolve() for h in hidden), memory_mb
@@ -328,7 +332,11 @@ class Worker:
     def stop(self) -> int | None:
         """Kill the worker and its process group, remove its scratch folder; its exit code."""
         process, self.process = self.process, None
-        return None if process is None else _end(process, self.scratch)
+        if process is None:
+            return None
+        if process.poll() is None:  # the kernel forgets a process's peak when it exits
+            self.peak_rss_mb = tree_peak_mb(process.pid)
+        return _end(process, self.scratch)
 
     def close(self) -> None:
         """End the worker. It is killed rather than asked to exit: it owes the evaluator nothing

@@ -170,6 +170,11 @@ class _Isolated:
         """Stop the worker (the proxy is unusable afterwards)."""
         self._worker.close()
 
+    @property
+    def peak_rss_mb(self) -> float | None:
+        """The worker's peak RSS, MiB, once it was closed (None before)."""
+        return self._worker.peak_rss_mb
+
     def __enter__(self) -> _Isolated:
         return self
 

@@ -1,0 +1,89 @@
+"""Markdown tables of what a board's tasks cost, from the records of a gathered board file
+(``task_seconds``, ``task_phases``, ``task_peak_rss_mb``): tracks as rows, methods as
+columns. Options of both: ``tracks=a,b`` and ``methods=a,b`` choose and order rows and
+columns, as for :func:`~sfa_gym.report.formatters.board_table`."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from sfa_gym.report.formatters import _head, _records, _row, _split
+
+__all__ = ["board_memory_table", "board_seconds_table"]
+
+
+def _grid(
+    files: Sequence[dict[str, Any]],
+    options: dict[str, str],
+    name: str,
+    per_task: Callable[[dict[str, Any]], list[Any] | None],
+) -> tuple[list[str], list[str], dict[tuple[str, str], list[Any]]]:
+    """The tracks, the methods and each (track, method)'s per-task values (``per_task`` of its
+    record; records where it gives None are left out)."""
+    records = _records(files, name)
+    tracks = _split(options.get("tracks")) or list(dict.fromkeys(r["track"] for r in records))
+    methods = _split(options.get("methods")) or list(dict.fromkeys(r["method"] for r in records))
+    cells = {}
+    for r in records:
+        values = per_task(r)
+        if values is not None:
+            cells[(r["track"], r["method"])] = values
+    return tracks, methods, cells
+
+
+def board_seconds_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """The seconds a board's tasks took, from its file's ``task_seconds``: the mean seconds of
+    a world seed's task (renders included where that task rendered) and, in the last row, each
+    method's whole board (every task, one after the other). Option ``phase=fit`` (or another
+    phase of ``task_phases``): that phase's seconds only."""
+    phase = options.get("phase")
+
+    def per_task(record: dict[str, Any]) -> list[Any] | None:
+        if phase is None:
+            return record["task_seconds"]
+        if not record.get("task_phases"):
+            return None
+        return [p.get(phase) if p else None for p in record["task_phases"]]
+
+    tracks, methods, cells = _grid(files, options, "board-seconds", per_task)
+    title = "track: s per world seed" if phase is None else f"track: {phase} s per world seed"
+    lines = _head([title, *methods])
+    total = dict.fromkeys(methods, 0.0)
+    for t in tracks:
+        row = [f"`{t}`"]
+        for m in methods:
+            seconds = cells.get((t, m))
+            if not seconds or None in seconds:
+                row.append("-")
+                continue
+            total[m] += sum(seconds)
+            row.append(f"{sum(seconds) / len(seconds):.0f}")
+        lines.append(_row(row))
+    lines.append(_row(["these tracks, min", *(f"{total[m] / 60:.0f}" for m in methods)]))
+    return "\n".join(lines)
+
+
+def board_memory_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """The peak resident memory of a board's tasks, from its file's ``task_peak_rss_mb``: per
+    track and method the largest over the world seeds, in GiB, of the plug-in's worker and, in
+    parentheses, of the evaluator (:mod:`sfa_gym.memory`); ``-`` where a task did not record
+    it (tasks written before the field was)."""
+
+    def per_task(record: dict[str, Any]) -> list[Any] | None:
+        return record.get("task_peak_rss_mb")
+
+    tracks, methods, cells = _grid(files, options, "board-memory", per_task)
+    lines = _head(["track: peak GiB, plug-in (evaluator)", *methods])
+    for t in tracks:
+        row = [f"`{t}`"]
+        for m in methods:
+            peaks = cells.get((t, m))
+            if not peaks or any(p is None or p.get("plugins") is None for p in peaks):
+                row.append("-")
+                continue
+            plugin = max(p["plugins"] for p in peaks) / 1024
+            evaluator = max(p["evaluator"] for p in peaks) / 1024
+            row.append(f"{plugin:.2f} ({evaluator:.2f})")
+        lines.append(_row(row))
+    return "\n".join(lines)
