@@ -9,6 +9,7 @@ import dataclasses
 import math
 import re
 import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +61,7 @@ def run(field_path, tmp_path_factory) -> Path:
 
 
 def test_train_writes_the_curve_checkpoints_and_model_and_resumes(
-    run, field_path, tmp_path, capsys
+    run, field_path, tmp_path, capsys, monkeypatch
 ):
     from stable_baselines3 import PPO
 
@@ -91,7 +92,11 @@ def test_train_writes_the_curve_checkpoints_and_model_and_resumes(
     newest = resumed_run / "checkpoints" / "ppo_512_steps.zip"
     newest.write_bytes(newest.read_bytes()[:1000])
     env = AgentEnv(field=field_path)
+    system_temp = tmp_path / "tmp"
+    system_temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(system_temp))
     resumed = train(resumed_run, env, dataclasses.replace(SMALL, total_timesteps=1024), False)
+    assert list(system_temp.iterdir()) == []  # nothing left in the system's temporary folder
     assert "skipped checkpoint" in capsys.readouterr().err
     assert resumed[:1] == curve[:1]  # floats round-trip exactly; the 512-step row is redone
     assert [row["steps"] for row in resumed[1:]] == [512, 768, 1024]

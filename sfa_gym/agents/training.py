@@ -159,6 +159,7 @@ def train(
     import torch
     from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback
     from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.logger import Logger
     from tqdm import tqdm
 
     from sfa_gym.agents.env import make_env
@@ -184,6 +185,9 @@ def train(
         model, curve = _new_model(env, settings, venv), []
     else:  # rows evaluated after the checkpoint will be evaluated again
         curve = [r for r in load_curve(out / CURVE) if r["steps"] <= model.num_timesteps]
+    # the learning curve is the run's record; SB3's own logger would make a folder in the
+    # system's temporary directory at every learn() and write nothing there (verbose=0)
+    model.set_logger(Logger(folder=None, output_formats=[]))
     before = curve[-1]["seconds"] if curve else 0.0  # wall time of earlier sessions
     started = time.perf_counter()
     bar = tqdm(total=settings.total_timesteps, initial=model.num_timesteps,
