@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -199,6 +200,22 @@ def test_publish_extends_a_published_file_keeping_its_entries_whole(tmp_path, ca
     kept, added = json.loads(out.read_text())["results"]
     assert kept == entry
     assert added["track"] == "train_test" and added["per_world_seed"] == {"100": 1.5, "101": 2.5}
+
+    # a result file of a published entry's track, size and method replaces the entry: a rerun
+    rerun = later / "few_labels" / "mine.quick.json"
+    rerun.parent.mkdir(parents=True)
+    rerun.write_text(json.dumps(_result("few_labels", "mine", {100: 3.0, 101: 4.0})))
+    assert main(args) == 0
+    replaced, added_again = json.loads(out.read_text())["results"]
+    assert replaced["per_world_seed"] == {"100": 3.0, "101": 4.0} and added_again == added
+    # two result files of one key are still refused (two runs mixed in one folder)
+    twice = later / "again" / "few_labels" / "mine.quick.json"
+    twice.parent.mkdir(parents=True)
+    twice.write_text(rerun.read_text())
+    assert main(args) != 0
+    assert "more than one result of (track, quick, method)" in capsys.readouterr().err
+    shutil.rmtree(later / "again")
+    rerun.unlink()
 
     # an entry whose plug-ins ran unconfined is refused as a result file's task would be
     entry["isolation"] = ["bwrap", "process"]

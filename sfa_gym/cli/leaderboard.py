@@ -253,7 +253,8 @@ class LeaderboardPublish:
     """the gathered file to write (e.g. published/leaderboard/quick.json)"""
     results: Path = Path("results/leaderboard")
     """the results folder of the run (searched recursively); a gathered file in it is kept
-    entry by entry, so copying a published file in extends it"""
+    entry by entry, so copying a published file in extends it (a result file of the same
+    track, size and method replaces its entry)"""
     description: str = (
         "Per track and method the mean score over the track's world seeds, its 95 % interval, each "
         "seed's score, the parts' means and the provenance of the result file. Localization: "

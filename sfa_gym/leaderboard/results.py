@@ -289,11 +289,14 @@ def write_gathered(
     docstring; written atomically), the form in which reference results are published; returns
     the number of entries. The entries of a gathered file under ``results`` are kept as they are
     (checked like every result), so that a published file can be extended by a later run: copy
-    it into the run's folder and publish again.
+    it into the run's folder and publish again. A result file replaces the gathered entry of
+    the same track, size and method (a published result run again, e.g. to record what it
+    did not record then).
 
     Raises:
-        ValueError: ``results`` holds no result file, a result of the same track, size and
-            method twice (results of two runs mixed in one folder), or a result with a task
+        ValueError: ``results`` holds no result file, two result files (or two gathered
+            entries) of the same track, size and method (results of two runs mixed in one
+            folder), or a result with a task
             whose plug-ins ran unconfined (``isolation`` "process" or "in-process": no
             bubblewrap, or :data:`~sfa_gym.leaderboard.evaluate.IN_PROCESS`), which the plug-in
             could have altered. A task that does not record its isolation (written before tasks
@@ -316,16 +319,21 @@ def write_gathered(
             "read and rewrite what the evaluator can, so its results are not published; "
             "install bubblewrap (scripts/setup.sh does) and run again"
         )
-    entries = sorted(
-        (r["_entry"] if "_entry" in r else gathered_entry(r) for r in found),
-        key=lambda e: (e["track"], e["quick"], e["method"]),
-    )
-    keys = [(e["track"], e["quick"], e["method"]) for e in entries]
-    repeated = sorted({k for k in keys if keys.count(k) > 1})
-    if repeated:
-        raise ValueError(
-            f"{results} holds more than one result of (track, quick, method) {repeated[0]}"
-        )
+
+    def key(entry: dict[str, Any]) -> tuple[str, bool, str]:
+        return entry["track"], entry["quick"], entry["method"]
+
+    fresh = [gathered_entry(r) for r in found if "_entry" not in r]
+    kept = [r["_entry"] for r in found if "_entry" in r]
+    for group in (fresh, kept):
+        keys = [key(e) for e in group]
+        repeated = sorted({k for k in keys if keys.count(k) > 1})
+        if repeated:
+            raise ValueError(
+                f"{results} holds more than one result of (track, quick, method) {repeated[0]}"
+            )
+    rerun = {key(e) for e in fresh}
+    entries = sorted(fresh + [e for e in kept if key(e) not in rerun], key=key)
     write_json_atomic(Path(out), {"description": description, "results": entries})
     return len(entries)
 
