@@ -1,6 +1,8 @@
-"""Markdown tables of the localization studies' files (``studies/paper_pipeline.py``,
-``studies/release_drift.py``, ``studies/appearance_order.py``): rows of settings, each cell
-a mean over world seeds with its 95 % interval (:func:`sfa_gym.intervals.mean_entry`)."""
+"""Markdown tables of the studies' files whose rows are settings and whose cells are means over
+world seeds with their 95 % intervals (:func:`sfa_gym.intervals.mean_entry`): the localization
+studies (``studies/paper_pipeline.py``, ``studies/release_drift.py``,
+``studies/appearance_order.py``) and the outdoor world's item density
+(``studies/item_density.py``)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,12 @@ from typing import Any
 
 from sfa_gym.report.formatters import _head, _row
 
-__all__ = ["appearance_order_table", "paper_pipeline_table", "release_drift_table"]
+__all__ = [
+    "appearance_order_table",
+    "item_density_table",
+    "paper_pipeline_table",
+    "release_drift_table",
+]
 
 
 def _mean_cell(entry: dict[str, Any]) -> str:
@@ -96,4 +103,17 @@ def appearance_order_table(files: Sequence[dict[str, Any]], options: dict[str, s
                 cells = [_mean_cell(row[regression][c]) for c in (*conditions, "changed_mean")]
                 eta = row["max_eta_phi"]
                 lines.append(_row([training, label, *cells, f"{eta['mean']:.4f}"]))
+    return "\n".join(lines)
+
+
+def item_density_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """The outdoor world's spectrum slope and local contrast with its items' counts multiplied
+    (``studies/item_density.py``): per density the mean over the worlds with its 95 % interval,
+    and the env step's time against the shipped density's."""
+    lines = _head(["items", "alpha", "alpha, world's own", "median local contrast", "step x"])
+    for data in files:
+        for factor, row in data["rows"].items():
+            cells = [_mean_cell(row["alpha"]), _mean_cell(row["alpha_sharp"])]
+            cells += [f"{row['contrast_median']:.3f}", f"{row['step_ratio']:.2f}"]
+            lines.append(_row([f"x {factor}", *cells]))
     return "\n".join(lines)

@@ -74,6 +74,7 @@ GENERATORS: dict[str, Generator] = {
     "nav-steps": formatters.nav_steps_table,
     "outdoor-cost": formatters.outdoor_cost_table,
     "image-statistics": formatters.image_statistics_table,
+    "item-density": study_formatters.item_density_table,
     "appearance-change": formatters.appearance_change_table,
     "textures-build": formatters.textures_build_table,
     "paper-pipeline": study_formatters.paper_pipeline_table,
@@ -94,8 +95,8 @@ track), ``nav-sets``
 ``quick-vs-full`` (the quick board's ranks against the full one's), ``descent-bound``,
 ``nav-steps``, ``outdoor-cost`` (also the textures' cost per step), ``image-statistics``,
 ``appearance-change``, ``textures-build``, ``sfa-engine``, ``leaderboard-timings`` and
-``equivariance`` (:mod:`sfa_gym.report.formatters`); ``paper-pipeline``, ``release-drift``
-and ``appearance-order`` (the localization studies: :mod:`sfa_gym.report.study_formatters`)."""
+``equivariance`` (:mod:`sfa_gym.report.formatters`); ``paper-pipeline``, ``release-drift``,
+``appearance-order`` and ``item-density`` (:mod:`sfa_gym.report.study_formatters`)."""
 
 _BLOCK = re.compile(
     r"<!-- generated: (?P<spec>[^\n]*?) -->\n(?P<body>.*?)<!-- end generated -->", re.DOTALL
