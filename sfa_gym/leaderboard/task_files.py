@@ -7,7 +7,8 @@ SIGTERM, SIGKILL, a dead Ray worker) keeps every finished task and a rerun resum
     {"format": "sfa-gym-leaderboard-task", "schema_version": 1,
      "identity": {"track": {"name", "track_version", "sha256"}, "quick", "world_seed",
                   "method": {"name", "sha256", "args"}, "controller": null | {...}},
-     "output": {"world_seed", "fit_world_seed", "scores", "seconds", "phases"} | null,
+     "output": {"world_seed", "fit_world_seed", "scores", "seconds", "phases",
+                "peak_rss_mb"} | null,
      "failure": {"type", "message", "attempts"} | null,
      "provenance": {"sfa_gym_version", "git_commit", "code_sha256", "backend", "node",
                     "created"}}
