@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_leaderboard import TINY, _write_track
-from test_sandbox import SLOW_FIT, _views
+from test_leaderboard import TINY, _write_track, band_means_fitting
+from test_sandbox import _views
 
 from sfa_gym.cli.main import main
 from sfa_gym.leaderboard.evaluate import Task, run_task, task_limits
@@ -48,9 +48,7 @@ METHOD = Hog
 
 
 def _slow(tmp_path: Path) -> Path:
-    path = tmp_path / "slow.py"
-    path.write_text(BAND_MEANS.read_text() + SLOW_FIT)
-    return path
+    return band_means_fitting(tmp_path / "slow.py", "import time\ntime.sleep(600)")
 
 
 # ------------------------------------------------------------------------------ time limits
