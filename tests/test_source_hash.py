@@ -75,7 +75,7 @@ def test_a_task_fails_when_the_sources_change_before_or_during_it(
 
 
 def test_a_sweep_records_its_hash_and_fails_the_tasks_of_edited_sources(
-    tmp_path, package_copy, monkeypatch
+    tmp_path, package_copy, monkeypatch, capsys
 ):
     track = load_track(_write_track(tmp_path / "tracks", TINY))
     results = tmp_path / "results"
@@ -87,8 +87,15 @@ def test_a_sweep_records_its_hash_and_fails_the_tasks_of_edited_sources(
     assert record["provenance"]["code_sha256"] == started
     assert record["output"]["scores"]["score"] > 0
 
+    # resumed on other sources: the finished task is kept, and the sweep says so
+    rotation = package_copy / "rotation.py"
+    rotation.write_text(rotation.read_text() + "\n# edited after the task\n")
+    run_sweep([track], [(BAND_MEANS, {})], results, **{**common, "verbose": True})
+    assert "1 of them ran on other sfa_gym sources than these" in capsys.readouterr().err
+    assert json.loads(task_file.read_text()) == record
+
     task_file.unlink()
-    monkeypatch.setattr(evaluate, "_protocol_scores", _edits(package_copy / "rotation.py"))
+    monkeypatch.setattr(evaluate, "_protocol_scores", _edits(rotation))
     with pytest.raises(SweepError, match="not those the sweep started with"):
         run_sweep([track], [(BAND_MEANS, {})], results, **common)
     failed = json.loads(task_file.read_text())

@@ -169,6 +169,17 @@ def run_sweep(
             f"{len(finished)} of {len(planned)} task(s) finished before (files under "
             f"{results / TASKS_FOLDER}); {len(todo)} to run"
         )
+        other = [
+            planned[i].what
+            for i, r in finished.items()
+            if r["provenance"].get("code_sha256") not in (None, code)
+        ]
+        if other:  # kept, as any finished task is; said, so that --rerun is a choice
+            say(
+                f"{len(other)} of them ran on other sfa_gym sources than these (e.g. "
+                f"{other[0]}; provenance.code_sha256 of the task files); --rerun computes "
+                "every task again"
+            )
     pairs: dict[tuple[int, int], list[int]] = {}
     for i, p in enumerate(planned):
         pairs.setdefault(p.pair, []).append(i)
