@@ -132,6 +132,8 @@ def test_training_views_are_the_sequence_for_methods_without_the_shortcut():
     rotation = Rotation(step=4)
     views = training_views(pans, rotation, appearances=2)
     assert np.array_equal(views, _materialised(pans, 4, 2))
+    # one appearance: every place's rotations in order, the definition's sequence too
+    assert np.array_equal(training_views(pans, rotation), _materialised(pans, 4, 1))
     # a subset of rotations keeps the snake over the appearances at each of them
     picked = training_views(pans, rotation, 2, indices=np.array([0, 5]))
     full = views.reshape(4, -1, H, W, 3)

@@ -122,6 +122,8 @@ def training_views(
     consecutive panoramas (the rotations in order for one)."""
     count_places(len(panoramas), appearances)
     views = rotation.views(panoramas, indices)[0]  # (L, K', H, W', 3)
+    if appearances == 1:  # already in order: no second copy of every view (GiB on a track)
+        return views.reshape(-1, *views.shape[2:])
     k, a = rotation_sequence(views.shape[1], appearances)
     places = views.reshape(-1, appearances, *views.shape[1:])
     return places[:, a, k].reshape(-1, *views.shape[2:])
