@@ -157,15 +157,14 @@ def run_task(task: Task) -> dict[str, Any]:
     task and the largest of its plug-in workers' (``plugins``: None when the plug-ins ran in the
     evaluator's process, whose peak then includes theirs).
     """
-    reset_own_peak()  # a Ray worker runs many tasks: this one's peak only
     with measure() as phases:
         out = _run_task(task)
-    out["peak_rss_mb"] = {"evaluator": own_peak_mb(), **out["peak_rss_mb"]}
     return {**out, "phases": phases.as_dict()}
 
 
 def _run_task(task: Task) -> dict[str, Any]:
     started = time.perf_counter()
+    reset_own_peak()  # a Ray worker runs many tasks: this one's peak only
     check_sources(task.code_sha256, "at the task's start")
     track = load_track(task.track_path)
     seeds, _ = track.sized(task.quick)
@@ -205,7 +204,7 @@ def _run_task(task: Task) -> dict[str, Any]:
         "scores": significant(scores),
         "seconds": round(time.perf_counter() - started, 2),
         "isolation": isolation(),
-        "peak_rss_mb": {"plugins": max(peaks) if peaks else None},
+        "peak_rss_mb": {"evaluator": own_peak_mb(), "plugins": max(peaks) if peaks else None},
     } | ({"shared": significant(shared)} if shared else {})
 
 

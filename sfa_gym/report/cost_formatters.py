@@ -69,11 +69,9 @@ def board_memory_table(files: Sequence[dict[str, Any]], options: dict[str, str])
     track and method the largest over the world seeds, in GiB, of the plug-in's worker and, in
     parentheses, of the evaluator (:mod:`sfa_gym.memory`); ``-`` where a task did not record
     it (tasks written before the field was)."""
-
-    def per_task(record: dict[str, Any]) -> list[Any] | None:
-        return record.get("task_peak_rss_mb")
-
-    tracks, methods, cells = _grid(files, options, "board-memory", per_task)
+    tracks, methods, cells = _grid(
+        files, options, "board-memory", lambda record: record.get("task_peak_rss_mb")
+    )
     lines = _head(["track: peak GiB, plug-in (evaluator)", *methods])
     for t in tracks:
         row = [f"`{t}`"]
