@@ -30,11 +30,12 @@ from tqdm.auto import tqdm
 from sfa_gym.files import write_json_atomic
 from sfa_gym.image_statistics import local_contrast, spectrum_slope
 from sfa_gym.intervals import mean_entry
-from studies.image_statistics import NATURAL, SHARP
+from studies.image_statistics import NATURAL, SHARP, _panoramas
 
 ROOT = Path(__file__).resolve().parents[1]
 ITEMS = ("trees", "bushes", "lamp_posts", "fences", "cars")
 """The outdoor spec's item kinds whose counts are multiplied."""
+ENV_ID = "sfa_gym/OmniRoverOutdoorTextured-v0"
 CAMERA = {"camera": "cylindrical", "mirror": None, "sensor": False}
 STEPS = 30
 """env steps timed per world and density (a slow turn in place)"""
@@ -76,24 +77,16 @@ def _world(factor: float, seed: int, n: int) -> dict[str, Any]:
     import sfa_gym  # noqa: F401  (registers the ids)
 
     kwargs = {**CAMERA, "world": dense_spec(factor), "world_seed": seed}
-    env = gym.make("sfa_gym/OmniRoverOutdoorTextured-v0", **kwargs)
+    env = gym.make(ENV_ID, **kwargs)
     try:
         images = np.stack([env.reset(seed=i)[0] for i in range(n)])
-        panorama = env.unwrapped.panorama
         started = time.perf_counter()
         for _ in range(STEPS):
             env.step(np.array([0.0, 0.3], dtype=np.float32))
         step_ms = 1000 * (time.perf_counter() - started) / STEPS
     finally:
         env.close()
-    sharp = dataclasses.replace(
-        panorama, width=panorama.width * SHARP, height=panorama.height * SHARP
-    )
-    env = gym.make("sfa_gym/OmniRoverOutdoorTextured-v0", **kwargs, panorama=sharp)
-    try:
-        fine = np.stack([env.reset(seed=i)[0] for i in range(n)])
-    finally:
-        env.close()
+    fine = _panoramas(ENV_ID, kwargs, n, SHARP)
     spectrum = spectrum_slope(images)
     return {
         "images": images,
