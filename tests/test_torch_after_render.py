@@ -7,6 +7,7 @@ Run in a fresh interpreter: the crash is a SIGSEGV that would take pytest down w
 from __future__ import annotations
 
 import importlib.util
+import os
 import subprocess
 import sys
 import textwrap
@@ -19,16 +20,24 @@ pytestmark = pytest.mark.skipif(
 )
 
 
-def run_fresh(code: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-c", textwrap.dedent(code)],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+@pytest.fixture
+def run_fresh(tmp_path):
+    """Runs ``code`` in a fresh interpreter whose temp folder is the test's own: SB3's default
+    logger makes an ``SB3-<time>`` folder there at every ``learn()``."""
+
+    def run(code: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [sys.executable, "-c", textwrap.dedent(code)],
+            capture_output=True,
+            text=True,
+            timeout=600,
+            env={**os.environ, "TMPDIR": str(tmp_path)},
+        )
+
+    return run
 
 
-def test_ppo_trains_after_the_env_has_rendered():
+def test_ppo_trains_after_the_env_has_rendered(run_fresh):
     done = run_fresh(
         """
         import gymnasium as gym
@@ -47,7 +56,7 @@ def test_ppo_trains_after_the_env_has_rendered():
     assert "trained 256" in done.stdout
 
 
-def test_an_optimizer_after_the_top_down_render():
+def test_an_optimizer_after_the_top_down_render(run_fresh):
     done = run_fresh(
         """
         import gymnasium as gym
@@ -64,7 +73,7 @@ def test_an_optimizer_after_the_top_down_render():
     assert "ok (256, 256, 3)" in done.stdout
 
 
-def test_ppo_trains_on_the_rendered_navigation_env_in_subprocess_workers():
+def test_ppo_trains_on_the_rendered_navigation_env_in_subprocess_workers(run_fresh):
     # two workers render image-goal episodes; the policy sees both panoramas (MultiInputPolicy:
     # a CNN per image); the parent has rendered too, so the workers are spawned
     done = run_fresh(
