@@ -11,17 +11,23 @@ shadows; the campus through both cameras. Every cylindrical view is also rendere
 world's own, without the blur of the camera's anti-aliasing at the finest fitted scales. Two
 photographs measured the same way calibrate the yardstick at this size: scikit-learn's sample
 images (a temple among trees, and a flower before a blurred background), cut into overlapping
-strips of the panoramas' 1:10 aspect and shrunk to 60 x 600. Writes ``published/studies/
-image_statistics.json`` and ``docs/image_statistics.png`` (the spectra, log-log, beside the
-natural-image band).
+strips of the panoramas' 1:10 aspect and shrunk to 60 x 600. Real panoramas calibrate it for
+this camera: Poly Haven's equirectangular HDR photographs of real places (:data:`REAL`, CC0, the
+1k files as ``pmndrs/drei-assets`` on GitHub ships them in ``hdri/``), cut to the cylindrical
+camera's elevation band (rows uniform in elevation, as the camera's), shrunk to its 60 x 600 with
+a box filter, exposed like the camera's auto-exposure (the mean grey level at
+``SensorSpec.target``), sRGB-encoded to 8 bits and measured at 12 headings each. Writes
+``published/studies/image_statistics.json`` and ``docs/image_statistics.png`` (the spectra,
+log-log, beside the natural-image band).
 
 Usage (from the repository root; a few minutes on 2 cores)::
 
-    .venv/bin/python -m studies.image_statistics
+    .venv/bin/python -m studies.image_statistics --hdri path/to/drei-assets/hdri
 """
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -79,6 +85,26 @@ PHOTOGRAPHS = {
 }
 """Reference rows: scikit-learn's sample photographs (``sklearn.datasets.load_sample_image``)."""
 
+REAL = {
+    "real, city square (Potsdamer Platz)": "potsdamer_platz_1k.hdr",
+    "real, park": "rooitou_park_1k.hdr",
+    "real, forest": "forest_slope_1k.hdr",
+    "real, mountain meadow": "immenstadter_horn_1k.hdr",
+    "real, dawn landscape": "kiara_1_dawn_1k.hdr",
+    "real, waterfront at sunset": "venice_sunset_1k.hdr",
+    "real, covered footbridge": "adams_place_bridge_1k.hdr",
+    "real, savanna at night": "dikhololo_night_1k.hdr",
+    "real indoor, warehouse": "empty_warehouse_01_1k.hdr",
+    "real indoor, living room": "lebombo_1k.hdr",
+    "real indoor, hall": "st_fagans_interior_1k.hdr",
+}
+"""Reference rows: real places, Poly Haven's equirectangular HDR panoramas (CC0), by file name;
+the first eight outdoors."""
+
+REAL_HEADINGS = 12
+"""Each real panorama is measured at this many headings (column shifts), as the worlds at
+several poses: the spectrum's window weighs the columns unequally."""
+
 SHARP = 4
 """The cylindrical views are rendered again at this many times their rows and columns, and
 their slope fitted over the same angular frequencies: the world's own slope, without the
@@ -97,6 +123,8 @@ class Args:
     """where to write the figures"""
     png: Path = ROOT / "docs" / "image_statistics.png"
     """where to draw the spectra"""
+    hdri: Path | None = None
+    """folder holding the :data:`REAL` panoramas; without it their rows are left out"""
 
 
 def _panoramas(env_id: str, kwargs: dict[str, Any], n: int, scale: int = 1) -> np.ndarray:
@@ -148,13 +176,60 @@ def _strips(photo: str, shape: tuple[int, int] = (60, 600)) -> np.ndarray:
     )
 
 
-def measure(n: int) -> dict[str, Any]:
-    """``{view: {"alpha", "contrast_percentiles", "spectrum"}}`` of every :data:`VIEWS` and
-    :data:`PHOTOGRAPHS`."""
+def _exposed(radiance: np.ndarray, target: float) -> np.ndarray:
+    """8-bit sRGB of linear ``radiance`` ``(H, W, 3)`` at the exposure whose mean grey level is
+    ``target`` (bisection on the log exposure; highlights clip as a camera's do)."""
+
+    def encode(exposure: float) -> np.ndarray:
+        v = np.clip(radiance * exposure, 0.0, 1.0)
+        return np.where(v <= 0.0031308, 12.92 * v, 1.055 * v ** (1 / 2.4) - 0.055) * 255.0
+
+    low, high = -30.0, 30.0  # log exposure; the mean grey level grows with it
+    for _ in range(60):
+        mid = (low + high) / 2.0
+        low, high = (mid, high) if encode(np.exp(mid)).mean() < target else (low, mid)
+    return np.round(encode(np.exp((low + high) / 2.0))).astype(np.uint8)
+
+
+def _real(path: Path) -> np.ndarray:
+    """:data:`REAL_HEADINGS` views of the equirectangular HDR panorama ``path`` as the
+    cylindrical camera of the outdoor protocol would see them (see the module docstring)."""
+    import cv2
+
+    from sfa_gym.sim.camera import PanoramaSpec
+    from sfa_gym.sim.camera.sensor import SensorSpec
+
+    radiance = cv2.imread(str(path), cv2.IMREAD_ANYDEPTH | cv2.IMREAD_COLOR)
+    if radiance is None:
+        raise ValueError(f"{path}: not a readable HDR image (expected a Radiance .hdr file)")
+    if radiance.ndim != 3 or radiance.shape[1] != 2 * radiance.shape[0]:
+        raise ValueError(
+            f"{path}: expected an equirectangular (2:1) colour image, got shape {radiance.shape}"
+        )
+    spec = PanoramaSpec.paper_outdoor()
+    rows = radiance.shape[0]  # 180 degrees of elevation, top row at the zenith
+    top = round((90.0 - spec.vfov_deg / 2) / 180.0 * rows)
+    bottom = round((90.0 + spec.vfov_deg / 2) / 180.0 * rows)
+    band = cv2.resize(
+        radiance[top:bottom, :, ::-1], (spec.width, spec.height), interpolation=cv2.INTER_AREA
+    ).astype(np.float64)
+    shifts = range(0, spec.width, spec.width // REAL_HEADINGS)
+    return np.stack([_exposed(np.roll(band, k, axis=1), SensorSpec().target) for k in shifts])
+
+
+def measure(n: int, hdri: Path | None = None) -> dict[str, Any]:
+    """``{view: {"alpha", "contrast_percentiles", "spectrum"}}`` of every :data:`VIEWS`,
+    :data:`PHOTOGRAPHS` and, with ``hdri``, :data:`REAL` panorama."""
     out = {}
-    sources = list(VIEWS.items()) + list(PHOTOGRAPHS.items())
+    sources: list[tuple[str, Any]] = list(VIEWS.items()) + list(PHOTOGRAPHS.items())
+    if hdri is not None:
+        sources += [(name, hdri / file) for name, file in REAL.items()]
     for name, source in tqdm(sources, desc="worlds"):
-        if isinstance(source, str):
+        if isinstance(source, Path):
+            images = _real(source)
+            digest = hashlib.sha256(source.read_bytes()).hexdigest()
+            where = {"real_panorama": f"Poly Haven {source.name}", "sha256": digest}
+        elif isinstance(source, str):
             images, where = _strips(source), {"photograph": f"sklearn sample image {source}"}
         else:
             images = _panoramas(source[0], source[1], n)
@@ -162,7 +237,7 @@ def measure(n: int) -> dict[str, Any]:
         spectrum = spectrum_slope(images)
         contrast = local_contrast(images)
         sharp = None
-        if not isinstance(source, str) and _cylindrical(*source):
+        if isinstance(source, tuple) and _cylindrical(*source):
             fine = _panoramas(source[0], source[1], n, SHARP)
             sharp = round(spectrum_slope(fine, f_high=spectrum.f_high / SHARP).alpha, 3)
         out[name] = {
@@ -193,27 +268,29 @@ def draw(found: dict[str, Any], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=100)
+    # left: our worlds; right: the references (real places, photographs), on the same axes
+    fig, axes = plt.subplots(1, 2, figsize=(11, 5.2), dpi=100, sharex=True, sharey=True)
+    f = np.geomspace(0.03, 0.35, 10)
+    for ax, title in zip(axes, ("our worlds", "real places and photographs"), strict=True):
+        for alpha in NATURAL:
+            ax.loglog(f, (f / f[0]) ** -alpha, "k:", lw=0.8)
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("spatial frequency (cycles per pixel)")
     for name, entry in found.items():
         f = np.asarray(entry["spectrum"]["cycles_per_pixel"])
         a = np.asarray(entry["spectrum"]["amplitude"])
-        style = "--" if "photograph" in entry else "-"  # the reference photographs
-        ax.loglog(f, a / a[0], style, label=f"{name} (alpha {entry['alpha']:.2f})")
-    f = np.geomspace(0.03, 0.35, 10)
-    for alpha in NATURAL:
-        ax.loglog(f, (f / f[0]) ** -alpha, "k:", lw=0.8)
-    ax.text(
-        0.97,
-        0.95,
-        "dotted: natural scenes, alpha 0.9 and 1.2",
-        fontsize=8,
-        ha="right",
-        transform=ax.transAxes,
+        reference = "real_panorama" in entry or "photograph" in entry
+        style = "--" if "indoor" in name or "photograph" in entry else "-"
+        axes[int(reference)].loglog(
+            f, a / a[0], style, lw=1.0, label=f"{name} (alpha {entry['alpha']:.2f})"
+        )
+    axes[0].set_ylabel("amplitude (relative to the lowest bin)")
+    axes[1].text(
+        0.97, 0.95, "dotted: alpha 0.9 and 1.2", fontsize=8, ha="right", transform=axes[1].transAxes
     )
-    ax.set_xlabel("spatial frequency (cycles per pixel)")
-    ax.set_ylabel("amplitude (relative to the lowest bin)")
-    ax.set_title("Radially averaged amplitude spectra of grey panoramas")
-    ax.legend(fontsize=6.5, loc="lower left")
+    for ax in axes:
+        ax.legend(fontsize=6, loc="lower left")
+    fig.suptitle("Radially averaged amplitude spectra of grey panoramas (60 x 600 unless named)")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
@@ -221,7 +298,9 @@ def draw(found: dict[str, Any], path: Path) -> None:
 
 
 def main(args: Args) -> int:
-    found = measure(args.panoramas)
+    if args.hdri is not None and not args.hdri.is_dir():
+        raise SystemExit(f"--hdri {args.hdri}: not a folder (expected one holding {REAL})")
+    found = measure(args.panoramas, args.hdri)
     write_json_atomic(
         args.json,
         {
