@@ -105,7 +105,13 @@ def test_a_rerun_runs_no_finished_task_and_a_stale_one_again(tmp_path, calls, ca
 
     calls.clear()
     run_sweep([track], [(method, {})], results, quick=True, **common)
-    assert [t.world_seed for t in calls] == [100]  # another size: its own tasks
+    # the quick size scores fewer world seeds and changes nothing else: its task is the full
+    # size's of the same seed, taken from its file
+    assert calls == []
+    quick_task = json.loads((results / "tasks" / "tiny" / "means.quick" / "100.json").read_text())
+    assert quick_task["identity"]["quick"] is True
+    assert quick_task["output"] == json.loads(task_file.read_text())["output"]
+    assert quick_task["provenance"]["same_task_as"] == "tiny / means / world seed 100, full size"
     calls.clear()
     # a quick section edited (one more world seed, a smaller grid): the quick tasks are stale,
     # the full size's are not
@@ -119,10 +125,10 @@ def test_a_rerun_runs_no_finished_task_and_a_stale_one_again(tmp_path, calls, ca
     calls.clear()
     bumped = load_track(_write_track(tracks, {**TINY, "track_version": 2}))
     run_sweep([bumped], [(method, {})], results, quick=True, **common)
-    assert [t.world_seed for t in calls] == [100]  # another size: its own tasks
+    assert [t.world_seed for t in calls] == [100]  # another track version: again
     calls.clear()
     run_sweep([bumped], [(method, {})], results, **common)
-    assert [t.world_seed for t in calls] == [100, 101]  # another track version: again
+    assert [t.world_seed for t in calls] == [101]  # 100: the quick task of this version
     calls.clear()
     run_sweep([bumped], [(method, {})], results, resume=False, **common)
     assert len(calls) == 2  # resume=False: every task

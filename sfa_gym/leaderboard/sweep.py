@@ -7,6 +7,9 @@ written atomically the moment the task finishes, a failing task is recorded as a
 others go on, and a rerun of the same sweep reuses every finished task whose identity (track
 version, method file, arguments, size) is unchanged. A full board can therefore be run across
 several sittings: interrupt it (Ctrl-C, SIGTERM, even SIGKILL) and run the same command again.
+A track whose quick size changes only how many world seeds are scored runs the same tasks at
+both sizes: a sweep at one size takes the finished tasks of the other size's sweep in the same
+results folder for the world seeds both score (:func:`_same_task_other_size`).
 """
 
 from __future__ import annotations
@@ -153,10 +156,17 @@ def run_sweep(
     covering = _covering_tasks(tracks, planned, quick)
     finished: dict[int, dict[str, Any]] = {}
     todo = []
+    other_size: dict[int, dict[str, Any]] = {}
     for i, p in enumerate(planned):
         record, why = read_finished(p.path, p.identity) if resume else (None, "")
+        same = None
+        if record is None and resume:
+            method = described[p.pair[1]]
+            same = _same_task_other_size(tracks[p.pair[0]], method, driver, results, quick, p)
         if record is not None:
             finished[i] = record
+        elif same is not None:
+            other_size[i] = same
         elif i not in covering:
             todo.append(i)
             if why:
@@ -211,6 +221,12 @@ def run_sweep(
             derived = _covered_outcome(tracks, planned, quick, k, i, outcome, shared)
             record(k, derived, {**provenance, "scored_with": p.what})
 
+    other = "full" if quick else "quick"
+    if other_size:
+        say(f"{len(other_size)} task(s) taken from the {other} size's task files (the same tasks)")
+    for i, same in other_size.items():  # the same task, finished by a sweep at the other size
+        provenance = {**same["provenance"], "same_task_as": f"{planned[i].what}, {other} size"}
+        record(i, same["output"], provenance)
     for i, by in covering.items():  # covered by a task finished in an earlier sitting
         if i not in finished and by in finished:
             derived = _covered_outcome(tracks, planned, quick, i, by, finished[by]["output"])
@@ -236,6 +252,27 @@ def run_sweep(
     if failures:
         raise SweepError([failures[i] for i in sorted(failures)], ordered)  # in the sweep's order
     return ordered
+
+
+def _same_task_other_size(
+    track: Track,
+    method: dict[str, Any],
+    driver: dict[str, Any] | None,
+    results: Path,
+    quick: bool,
+    planned: _Planned,
+) -> dict[str, Any] | None:
+    """The record of ``planned``'s task finished by a sweep at the other size, when that is the
+    same task: the track's parameters are the same at both sizes (its quick size scores fewer
+    world seeds and changes nothing else), both sizes score this world seed, and the other
+    task's identity is current (the same track version, plug-in files and arguments)."""
+    seed = planned.task.world_seed
+    other = not quick
+    if track.sized(other)[1] != track.sized(quick)[1] or seed not in track.sized(other)[0]:
+        return None
+    path = task_file(results, track.name, method["label"], other, seed)
+    record, _ = read_finished(path, task_identity(track, other, seed, method, driver))
+    return record
 
 
 def _covering_tasks(
