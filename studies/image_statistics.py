@@ -123,6 +123,8 @@ class Args:
     """where to write the figures"""
     png: Path = ROOT / "docs" / "image_statistics.png"
     """where to draw the spectra"""
+    side_by_side: Path = ROOT / "docs" / "real_and_rendered.png"
+    """where to show real places above rendered worlds (with ``hdri``)"""
     hdri: Path | None = None
     """folder holding the :data:`REAL` panoramas; without it their rows are left out"""
 
@@ -217,9 +219,12 @@ def _real(path: Path) -> np.ndarray:
     return np.stack([_exposed(np.roll(band, k, axis=1), SensorSpec().target) for k in shifts])
 
 
-def measure(n: int, hdri: Path | None = None) -> dict[str, Any]:
+def measure(
+    n: int, hdri: Path | None = None, examples: dict[str, np.ndarray] | None = None
+) -> dict[str, Any]:
     """``{view: {"alpha", "contrast_percentiles", "spectrum"}}`` of every :data:`VIEWS`,
-    :data:`PHOTOGRAPHS` and, with ``hdri``, :data:`REAL` panorama."""
+    :data:`PHOTOGRAPHS` and, with ``hdri``, :data:`REAL` panorama; ``examples`` receives the
+    first picture of each."""
     out = {}
     sources: list[tuple[str, Any]] = list(VIEWS.items()) + list(PHOTOGRAPHS.items())
     if hdri is not None:
@@ -234,6 +239,8 @@ def measure(n: int, hdri: Path | None = None) -> dict[str, Any]:
         else:
             images = _panoramas(source[0], source[1], n)
             where = {"env_id": source[0], "env_kwargs": source[1]}
+        if examples is not None:
+            examples[name] = images[0]
         spectrum = spectrum_slope(images)
         contrast = local_contrast(images)
         sharp = None
@@ -297,10 +304,40 @@ def draw(found: dict[str, Any], path: Path) -> None:
     plt.close(fig)
 
 
+SIDE_BY_SIDE = (
+    "real, city square (Potsdamer Platz)",
+    "campus, cylindrical 60 x 600",
+    "real, park",
+    "paper_outdoor textured, cylindrical 60 x 600",
+    "real, forest",
+    "paper_outdoor, cylindrical 60 x 600",
+)
+"""Real places and rendered worlds shown one above the other, at the camera's size."""
+
+
+def draw_side_by_side(found: dict[str, Any], examples: dict[str, np.ndarray], path: Path) -> None:
+    """The :data:`SIDE_BY_SIDE` pictures at the camera's 60 x 600, each with its slope."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = [name for name in SIDE_BY_SIDE if name in examples]
+    fig, axes = plt.subplots(len(names), 1, figsize=(12, 1.45 * len(names)), dpi=100)
+    for ax, name in zip(np.atleast_1d(axes), names, strict=True):
+        ax.imshow(examples[name], interpolation="nearest", aspect="equal")
+        ax.set_title(f"{name}: alpha {found[name]['alpha']:.2f}", fontsize=9, loc="left")
+        ax.set_axis_off()
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
 def main(args: Args) -> int:
     if args.hdri is not None and not args.hdri.is_dir():
         raise SystemExit(f"--hdri {args.hdri}: not a folder (expected one holding {REAL})")
-    found = measure(args.panoramas, args.hdri)
+    examples: dict[str, np.ndarray] = {}
+    found = measure(args.panoramas, args.hdri, examples)
     write_json_atomic(
         args.json,
         {
@@ -313,6 +350,9 @@ def main(args: Args) -> int:
     )
     draw(found, args.png)
     print(f"wrote {args.json} and {args.png}")
+    if args.hdri is not None:
+        draw_side_by_side(found, examples, args.side_by_side)
+        print(f"wrote {args.side_by_side}")
     return 0
 
 
