@@ -123,6 +123,16 @@ def test_board_intervals_and_seconds_come_from_the_file():
     fits = board_seconds_table([{"results": [record]}], {"phase": "fit"}).splitlines()
     assert fits[0] == "| track: fit s per world seed | m |"
     assert fits[2:] == ["| `t` | 180 |", "| these tracks, min | 6 |"]
+    # tasks scored within another track's task: no cost of their own, left out of the mean
+    shared = {**record, "method": "s", "task_seconds": [0.0, 0.0], "task_phases": [{}, {}]}
+    mixed = {**record, "method": "x", "task_seconds": [90.0, 0.0]}
+    mixed["task_phases"] = [{"fit": 80.0}, {}]
+    both = [{"results": [shared, mixed]}]
+    assert board_seconds_table(both, {}).splitlines()[2:] == [
+        "| `t` | shared | 90 |",
+        "| these tracks, min | 0 | 2 |",
+    ]
+    assert board_seconds_table(both, {"phase": "fit"}).splitlines()[2] == "| `t` | shared | 80 |"
     record["task_peak_rss_mb"] = [
         {"evaluator": 512.0, "plugins": 1024.0},
         {"evaluator": 2048.0, "plugins": 768.0},

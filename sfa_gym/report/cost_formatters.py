@@ -32,19 +32,34 @@ def _grid(
     return tracks, methods, cells
 
 
+def _shared(record: dict[str, Any]) -> list[bool]:
+    """Per world seed, whether the task was scored within another track's task (no seconds and
+    no phases of its own: the grid tracks of one world share a fit, a paper outdoor track is a
+    part of its appearance track's task)."""
+    phases = record.get("task_phases")
+    if not phases:  # written before tasks recorded their phases
+        return [False] * len(record["task_seconds"])
+    return [p == {} for p in phases]
+
+
 def board_seconds_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
     """The seconds a board's tasks took, from its file's ``task_seconds``: the mean seconds of
     a world seed's task (renders included where that task rendered) and, in the last row, each
-    method's whole board (every task, one after the other). Option ``phase=fit`` (or another
-    phase of ``task_phases``): that phase's seconds only."""
+    method's whole board (every task, one after the other). A task scored within another
+    track's task costs nothing of its own: it is left out of the mean, and a cell whose every
+    task was is ``shared``. Option ``phase=fit`` (or another phase of ``task_phases``): that
+    phase's seconds only."""
     phase = options.get("phase")
 
     def per_task(record: dict[str, Any]) -> list[Any] | None:
         if phase is None:
-            return record["task_seconds"]
-        if not record.get("task_phases"):
+            seconds = record["task_seconds"]
+        elif not record.get("task_phases"):
             return None
-        return [p.get(phase) if p else None for p in record["task_phases"]]
+        else:
+            seconds = [p.get(phase) for p in record["task_phases"]]
+        shared = _shared(record)
+        return ["shared" if shared[i] else v for i, v in enumerate(seconds)]
 
     tracks, methods, cells = _grid(files, options, "board-seconds", per_task)
     title = "track: s per world seed" if phase is None else f"track: {phase} s per world seed"
@@ -53,12 +68,16 @@ def board_seconds_table(files: Sequence[dict[str, Any]], options: dict[str, str]
     for t in tracks:
         row = [f"`{t}`"]
         for m in methods:
-            seconds = cells.get((t, m))
-            if not seconds or None in seconds:
+            values = cells.get((t, m))
+            own = [v for v in values or [] if v != "shared"]
+            if values and not own:
+                row.append("shared")
+                continue
+            if not own or None in own:
                 row.append("-")
                 continue
-            total[m] += sum(seconds)
-            row.append(f"{sum(seconds) / len(seconds):.0f}")
+            total[m] += sum(own)
+            row.append(f"{sum(own) / len(own):.0f}")
         lines.append(_row(row))
     lines.append(_row(["these tracks, min", *(f"{total[m] / 60:.0f}" for m in methods)]))
     return "\n".join(lines)
