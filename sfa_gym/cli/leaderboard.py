@@ -271,14 +271,41 @@ class LeaderboardPublish:
 
 
 @dataclass(frozen=True)
+class LeaderboardCompare:
+    """Compare a run of the board with a reference (a published file): per track, size and
+    method, whether every world seed both scored and every part's mean are equal to the last
+    stored digit, the largest difference, and what else differs between the two results (method
+    file, track version or size, CPU numerics, package versions). Exit status 1 when a score
+    differs."""
+
+    results: Path = Path("results/leaderboard")
+    """the run: a results folder (searched recursively) or a gathered file"""
+    reference: Path = Path("published/leaderboard/quick.json")
+    """the reference: a gathered file (published/leaderboard/*.json) or a results folder"""
+    all: bool = False
+    """list the reference's results the run does not have too (default: only those it has)"""
+
+    def run(self) -> int:
+        from sfa_gym.leaderboard.compare import compare_results, comparison_table, read_results
+
+        rows = compare_results(read_results(self.reference), read_results(self.results))
+        if not self.all:
+            rows = [r for r in rows if r.status != "reference only"]
+        print(comparison_table(rows))
+        return 1 if any(r.status == "differs" for r in rows) else 0
+
+
+@dataclass(frozen=True)
 class Leaderboard:
     """The leaderboard: score methods on versioned tracks (run), build the table (table), gather
-    a run's results into one published file (publish)."""
+    a run's results into one published file (publish), check a run against a published one
+    (compare)."""
 
     command: (
         Annotated[LeaderboardRun, tyro.conf.subcommand("run")]
         | Annotated[LeaderboardTable, tyro.conf.subcommand("table")]
         | Annotated[LeaderboardPublish, tyro.conf.subcommand("publish")]
+        | Annotated[LeaderboardCompare, tyro.conf.subcommand("compare")]
     )
 
     def run(self) -> int:

@@ -12,7 +12,8 @@
   a sweep (:mod:`~sfa_gym.leaderboard.sweep`) runs only the tasks not finished yet.
 - :mod:`~sfa_gym.leaderboard.results`: result files with provenance and intervals, each
   checked as it is read (:mod:`~sfa_gym.leaderboard.verify`: its fields, its mean recomputed);
-  :mod:`~sfa_gym.leaderboard.table`: the table built from them.
+  :mod:`~sfa_gym.leaderboard.table`: the table built from them;
+  :mod:`~sfa_gym.leaderboard.compare`: a rerun checked against a published run.
 """
 
 from __future__ import annotations

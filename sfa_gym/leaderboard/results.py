@@ -341,11 +341,11 @@ def write_gathered(
 def load_results(
     results: str | os.PathLike[str], source: str = YOURS, skipped: list[str] | None = None
 ) -> list[dict[str, Any]]:
-    """Every result under ``results`` (recursively): result files and the entries of gathered
-    files (see the module docstring), each checked (:func:`check_result`, and a result file's
-    place against its content) and marked with ``source`` (``"_source"``) and its file
-    (``"_file"``). Files of other sfa-gym formats (task files) are passed over. A folder that
-    does not exist holds no results.
+    """Every result under ``results`` (recursively; or of the one file ``results``): result
+    files and the entries of gathered files (see the module docstring), each checked
+    (:func:`check_result`, and a result file's place against its content) and marked with
+    ``source`` (``"_source"``) and its file (``"_file"``). Files of other sfa-gym formats (task
+    files) are passed over. A folder that does not exist holds no results.
 
     Args:
         skipped: where to note each file or gathered entry that cannot be shown (a message
@@ -355,8 +355,9 @@ def load_results(
         ResultError: (``skipped`` None) a file that is not valid JSON, neither a result nor a
             gathered file, of another schema version, or whose content fails the checks.
     """
+    root = Path(results)
     out = []
-    for path in sorted(Path(results).rglob("*.json")):
+    for path in [root] if root.is_file() else sorted(root.rglob("*.json")):
         try:
             out += _read_file(path, source, skipped)
         except ResultError as error:
