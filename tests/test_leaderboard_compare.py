@@ -95,7 +95,7 @@ def test_a_result_file_replaces_a_gathered_entry_and_two_entries_are_refused(tmp
     assert row.status == "differs" and row.largest_difference == pytest.approx(0.25)
 
     (run / "twice.json").write_text(published.read_text())
-    with pytest.raises(ValueError, match=r"the run holds two results of .*few_labels"):
+    with pytest.raises(ValueError, match=r"the run holds more than one result of .*few_labels"):
         compare_results(read_results(published), read_results(run))
     with pytest.raises(FileNotFoundError, match="nowhere"):
         read_results(tmp_path / "nowhere")

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sfa_gym.leaderboard.results import load_results, mean_parts
+from sfa_gym.leaderboard.results import load_results, mean_parts, one_per_key, result_key
 
 __all__ = ["Comparison", "compare_results", "comparison_table", "read_results"]
 
@@ -57,10 +57,6 @@ def read_results(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such results folder or gathered file")
     return load_results(path)
-
-
-def _key(result: dict[str, Any]) -> tuple[str, bool, str]:
-    return result["track"]["name"], bool(result["track"]["quick"]), result["method"]["label"]
 
 
 def _per_seed(result: dict[str, Any]) -> dict[int, float]:
@@ -110,7 +106,7 @@ def _compare(reference: dict[str, Any], run: dict[str, Any]) -> Comparison:
     else:
         status = "equal" if max(differences) == 0.0 else "differs"
     return Comparison(
-        *_key(reference),
+        *result_key(reference),
         status=status,
         seeds=(len(common), len(ours)),
         largest_difference=max(differences) if differences else None,
@@ -123,26 +119,13 @@ def compare_results(reference: list[dict[str, Any]], run: list[dict[str, Any]]) 
     results only ``run`` has; sorted by track, size and method.
 
     A result file replaces a gathered file's entry of the same key, as ``leaderboard publish``
-    does (a folder holding a published file copied in and the results run since).
+    does (:func:`~sfa_gym.leaderboard.results.one_per_key`).
 
     Raises:
         ValueError: a run holds two result files, or two gathered entries, of one track, size
             and method.
     """
-    by_key = []
-    for results, name in ((reference, "the reference"), (run, "the run")):
-        keyed: dict[tuple[str, bool, str], dict[str, Any]] = {}
-        # gathered entries first, so that a result file of the same key replaces its entry
-        for result in sorted(results, key=lambda r: "_entry" not in r):
-            key = _key(result)
-            if key in keyed and ("_entry" in keyed[key]) == ("_entry" in result):
-                raise ValueError(
-                    f"{name} holds two results of (track, quick, method) {key}: "
-                    f"{keyed[key].get('_file')} and {result.get('_file')}"
-                )
-            keyed[key] = result
-        by_key.append(keyed)
-    ref, new = by_key
+    ref, new = one_per_key(reference, "the reference"), one_per_key(run, "the run")
     rows = []
     for key in sorted(set(ref) | set(new)):
         if key in ref and key in new:

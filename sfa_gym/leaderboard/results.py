@@ -320,22 +320,40 @@ def write_gathered(
             "install bubblewrap (scripts/setup.sh does) and run again"
         )
 
-    def key(entry: dict[str, Any]) -> tuple[str, bool, str]:
-        return entry["track"], entry["quick"], entry["method"]
-
-    fresh = [gathered_entry(r) for r in found if "_entry" not in r]
-    kept = [r["_entry"] for r in found if "_entry" in r]
-    for group in (fresh, kept):
-        keys = [key(e) for e in group]
-        repeated = sorted({k for k in keys if keys.count(k) > 1})
-        if repeated:
-            raise ValueError(
-                f"{results} holds more than one result of (track, quick, method) {repeated[0]}"
-            )
-    rerun = {key(e) for e in fresh}
-    entries = sorted(fresh + [e for e in kept if key(e) not in rerun], key=key)
+    chosen = one_per_key(found, str(results))
+    entries = [
+        r["_entry"] if "_entry" in r else gathered_entry(r) for _, r in sorted(chosen.items())
+    ]
     write_json_atomic(Path(out), {"description": description, "results": entries})
     return len(entries)
+
+
+def result_key(result: dict[str, Any]) -> tuple[str, bool, str]:
+    """What identifies a result on the board: its track, size (quick or not) and method."""
+    return result["track"]["name"], bool(result["track"]["quick"]), result["method"]["label"]
+
+
+def one_per_key(
+    results: list[dict[str, Any]], where: str
+) -> dict[tuple[str, bool, str], dict[str, Any]]:
+    """``results`` (as :func:`load_results` reads them) by :func:`result_key`: a result file
+    replaces the gathered entry of its key (a published result run again).
+
+    Raises:
+        ValueError: two result files, or two gathered entries, of one key (results of two runs
+            mixed in one folder); the message names ``where`` and both files.
+    """
+    chosen: dict[tuple[str, bool, str], dict[str, Any]] = {}
+    # gathered entries first, so that a result file of the same key replaces its entry
+    for result in sorted(results, key=lambda r: "_entry" not in r):
+        key = result_key(result)
+        if key in chosen and ("_entry" in chosen[key]) == ("_entry" in result):
+            raise ValueError(
+                f"{where} holds more than one result of (track, quick, method) {key}: "
+                f"{chosen[key].get('_file')} and {result.get('_file')}"
+            )
+        chosen[key] = result
+    return chosen
 
 
 def load_results(
