@@ -273,10 +273,10 @@ class LeaderboardPublish:
 @dataclass(frozen=True)
 class LeaderboardCompare:
     """Compare a run of the board with a reference (a published file): per track, size and
-    method, whether every world seed both scored and every part's mean are equal to the last
-    stored digit, the largest difference, and what else differs between the two results (method
-    file, track version or size, CPU numerics, package versions). Exit status 1 when a score
-    differs."""
+    method, whether every world seed both scored, and its parts, are equal to the last stored
+    digit (a gathered file keeps only the parts' means), the largest difference, and what else
+    differs between the two results (method file, track version or size, CPU numerics, package
+    versions). Exit status 1 when a score differs."""
 
     results: Path = Path("results/leaderboard")
     """the run: a results folder (searched recursively) or a gathered file"""

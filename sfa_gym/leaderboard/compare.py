@@ -1,5 +1,6 @@
 """Whether a run of the board scored what a reference run scored: result by result (track, size,
-method), world seed by world seed, and each part's mean (the outdoor tracks' conditions).
+method), world seed by world seed, and each seed's parts (the outdoor tracks' conditions; their
+means where one side is a gathered file).
 
 Same seed, same numbers is what the board promises: a rerun on this code gives every published
 score to its last stored digit. Where a score differs, the comparison says what else differs
@@ -31,8 +32,8 @@ class Comparison:
             last stored digit; only the parts' means where one side is a gathered file),
             ``"differs"``, ``"no common world seed"``, ``"reference only"`` or ``"run only"``.
         seeds: ``(compared, the reference's)`` world seeds.
-        largest_difference: the largest absolute difference of a world seed's score or a
-            part's mean; None where nothing was compared.
+        largest_difference: the largest absolute difference of a world seed's score or of a
+            part; None where nothing was compared.
         also_differs: what else differs between the two results (see the module docstring).
     """
 
