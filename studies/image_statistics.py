@@ -215,8 +215,9 @@ def _real(path: Path) -> np.ndarray:
     band = cv2.resize(
         radiance[top:bottom, :, ::-1], (spec.width, spec.height), interpolation=cv2.INTER_AREA
     ).astype(np.float64)
+    exposed = _exposed(band, SensorSpec().target)  # a heading changes no pixel's value
     shifts = range(0, spec.width, spec.width // REAL_HEADINGS)
-    return np.stack([_exposed(np.roll(band, k, axis=1), SensorSpec().target) for k in shifts])
+    return np.stack([np.roll(exposed, k, axis=1) for k in shifts])
 
 
 def measure(
