@@ -133,6 +133,10 @@ def test_board_intervals_and_seconds_come_from_the_file():
         "| these tracks, min | 0 | 2 |",
     ]
     assert board_seconds_table(both, {"phase": "fit"}).splitlines()[2] == "| `t` | shared | 80 |"
+    # a task of a file that recorded no phases for it: no fit seconds, not an error
+    unrecorded = {**record, "method": "u", "task_phases": [{"fit": 80.0}, None]}
+    fits = board_seconds_table([{"results": [unrecorded]}], {"phase": "fit"}).splitlines()
+    assert fits[2] == "| `t` | - |"
     record["task_peak_rss_mb"] = [
         {"evaluator": 512.0, "plugins": 1024.0},
         {"evaluator": 2048.0, "plugins": 768.0},

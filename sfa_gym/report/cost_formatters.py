@@ -57,7 +57,8 @@ def board_seconds_table(files: Sequence[dict[str, Any]], options: dict[str, str]
         elif not record.get("task_phases"):
             return None
         else:
-            seconds = [p.get(phase) for p in record["task_phases"]]
+            # a task without phases (written before tasks recorded them) has no seconds here
+            seconds = [p.get(phase) if p else None for p in record["task_phases"]]
         shared = _shared(record)
         return ["shared" if shared[i] else v for i, v in enumerate(seconds)]
 
