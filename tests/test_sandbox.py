@@ -258,3 +258,45 @@ def test_each_plugin_gets_a_worker_of_its_own_started_ahead():
         assert second._worker.process.pid == spare
         assert second.fit(_views()).transform(_views()).shape == (6, 8 * 3)
     assert first._worker.process is None  # killed when closed, not reused
+
+
+RECORDER = """
+    def fit(self, views, sequence_ids=None):
+        views = np.asarray(views)
+        self.seen = {"shape": "x".join(map(str, views.shape)), "digest": __import__(
+            "hashlib").sha256(np.ascontiguousarray(views).tobytes()).hexdigest()}
+        return self
+    def get_params(self, deep=True):
+        return getattr(self, "seen", {})
+    def look(self):
+        return [0.0]
+"""
+
+
+@pytest.mark.parametrize(("appearances", "indices"), [(1, None), (2, [0, 3, 5])])
+def test_an_isolated_method_is_fitted_on_views_made_in_its_worker(
+    tmp_path, monkeypatch, appearances, indices
+):
+    import hashlib
+
+    from sfa_gym.protocols import features
+    from sfa_gym.rotation import Rotation
+
+    panoramas = np.random.default_rng(1).integers(0, 256, (6, 8, 24, 3), dtype=np.uint8)
+    rotation, picked = Rotation(step=4, window=12), None if indices is None else np.array(indices)
+    views = features.training_views(panoramas, rotation, appearances, picked)
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the evaluator made the training views")
+
+    monkeypatch.setattr(features, "training_views", refuse)
+    with load_method(_plugin(tmp_path, RECORDER)) as isolated:
+        features.fit_on_views(isolated, panoramas, rotation, appearances, picked)
+        seen = isolated.get_params()
+    # the worker fitted on exactly the views the evaluator would have sent
+    assert seen["shape"] == "x".join(map(str, views.shape))
+    assert seen["digest"] == hashlib.sha256(views.tobytes()).hexdigest()
+    # in-process, the evaluator makes them (and here may not): the test can fail
+    inside = load_method(_plugin(tmp_path, RECORDER, "inside.py"), isolated=False)
+    with pytest.raises(AssertionError, match="the evaluator made the training views"):
+        features.fit_on_views(inside, panoramas, rotation, appearances, picked)

@@ -16,11 +16,13 @@ from sfa_gym.capabilities import get_capabilities
 from sfa_gym.localization import eta_phi, eta_r
 from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod
-from sfa_gym.rotation import Rotation, count_places, rotation_sequence
+from sfa_gym.rotation import Rotation, check_indices, count_places, rotation_sequence
+from sfa_gym.sandbox import IsolatedMethod
 
 __all__ = [
     "VIEWS_PER_BLOCK",
     "fit_method",
+    "fit_on_views",
     "fitted_features",
     "full_width",
     "invariance_entry",
@@ -107,7 +109,23 @@ def fit_method(
         return method.fit_rotations(panoramas, appearances=appearances)
     if capabilities.rotation_invariant and full_width(rotation, panoramas):
         return method.fit(np.asarray(panoramas))  # every full-width view is alike
-    return method.fit(training_views(panoramas, rotation, appearances))
+    return fit_on_views(method, panoramas, rotation, appearances)
+
+
+def fit_on_views(
+    method: FeatureMethod,
+    panoramas: NDArray[np.uint8],
+    rotation: Rotation,
+    appearances: int = 1,
+    indices: NDArray[np.intp] | None = None,
+) -> FeatureMethod:
+    """``method.fit(training_views(panoramas, rotation, appearances, indices))``. A plug-in in
+    its own worker process (:class:`~sfa_gym.sandbox.IsolatedMethod`) builds the views there
+    from the panoramas it is sent: the evaluator then never holds every view of a track (GiB),
+    only the panoramas; the views, and so the fit, are the same."""
+    if isinstance(method, IsolatedMethod):
+        return method.fit_training_views(panoramas, rotation, appearances, indices)
+    return method.fit(training_views(panoramas, rotation, appearances, indices))
 
 
 def training_views(
@@ -120,13 +138,19 @@ def training_views(
     training sequence ``(N, H, W', 3)``: location by location, and within a location in the
     order of :func:`~sfa_gym.rotation.rotation_sequence` over its ``appearances``
     consecutive panoramas (the rotations in order for one)."""
-    count_places(len(panoramas), appearances)
-    views = rotation.views(panoramas, indices)[0]  # (L, K', H, W', 3)
+    n_places = count_places(len(panoramas), appearances)
     if appearances == 1:  # already in order: no second copy of every view (GiB on a track)
+        views = rotation.views(panoramas, indices)[0]  # (L, K', H, W', 3)
         return views.reshape(-1, *views.shape[2:])
-    k, a = rotation_sequence(views.shape[1], appearances)
-    places = views.reshape(-1, appearances, *views.shape[1:])
-    return places[:, a, k].reshape(-1, *views.shape[2:])
+    # place by place into one array: one copy of every view, not two
+    _, height, width, channels = panoramas.shape
+    k, a = rotation_sequence(len(check_indices(width, rotation.step, indices)), appearances)
+    n = len(k)  # views of one place
+    out = np.empty((n_places * n, height, rotation.view_width(width), channels), panoramas.dtype)
+    for place in range(n_places):
+        runs = np.asarray(panoramas[place * appearances : (place + 1) * appearances])
+        out[place * n : (place + 1) * n] = rotation.views(runs, indices)[0][a, k]
+    return out
 
 
 def fitted_features(

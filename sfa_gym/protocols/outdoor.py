@@ -37,9 +37,9 @@ from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod, get_capabilities
 from sfa_gym.protocols.features import (
     fit_method,
+    fit_on_views,
     full_width,
     invariance_entry,
-    training_views,
     view_features,
 )
 
@@ -219,7 +219,7 @@ def fit_outdoor(method: FeatureMethod, config: Config, data: OutdoorData) -> Fea
     # every fit_every-th frame, with its train_also runs where they share its rotations
     places = np.arange(0, len(train_pan) // runs, config.fit_every)
     frames = (places[:, None] * runs + np.arange(runs)).ravel()
-    return method.fit(training_views(train_pan[frames], rotation, runs, data.windows))
+    return fit_on_views(method, train_pan[frames], rotation, runs, data.windows)
 
 
 @dataclass

@@ -8,7 +8,8 @@ evaluator may know of it (name, capabilities, filled-in arguments). A first mess
 ``"describe": true`` asks only what the file declares (its ``Args`` with their defaults, the
 arguments filled in, checked): the evaluator plans a sweep from it without importing the file.
 Every later message is one call (``fit``, ``transform``, ``act``, ...) with arrays of views or
-observations; the answer is ``{"ok": value}`` or ``{"error": [type names], "message": text}``.
+observations (``fit_training_views`` sends panoramas, and the worker makes their rotated views);
+the answer is ``{"ok": value}`` or ``{"error": [type names], "message": text}``.
 
 The worker holds only what it was sent: views, panoramas, observations and the rover's own
 sensors. One BLAS thread, as the evaluator computes, so that scores do not depend on where a
@@ -114,7 +115,7 @@ def _describe(request: dict[str, Any]) -> dict[str, Any]:
 
 
 CALLS = {
-    "method": ("fit", "fit_rotations", "transform", "transform_rotations"),
+    "method": ("fit", "fit_training_views", "fit_rotations", "transform", "transform_rotations"),
     "controller": ("reset", "act"),
 }
 
@@ -123,14 +124,30 @@ def _call(made: Any, kind: str, request: dict[str, Any]) -> Any:
     call = request["call"]
     if call not in CALLS[kind]:
         raise ValueError(f"no call {call!r} for a {kind} (one of {CALLS[kind]})")
+    if call == "fit_training_views":  # the evaluator sent panoramas: their views are made here
+        made.fit(_training_views(*request["args"]))
+        return _fitted(made)
     result = getattr(made, call)(*request.get("args", []))
-    if call in ("fit", "fit_rotations"):
-        shape = getattr(made, "input_shape_", None)
-        return {
-            "input_shape_": None if shape is None else [int(n) for n in shape],
-            "params": _params(made),
-        }
-    return result
+    return _fitted(made) if call in ("fit", "fit_rotations") else result
+
+
+def _training_views(
+    panoramas: Any, rotation: dict[str, Any], appearances: int, indices: Any
+) -> Any:
+    """The views ``fit_training_views`` fits on, as the evaluator would have made them."""
+    from sfa_gym.protocols.features import training_views
+    from sfa_gym.rotation import Rotation
+
+    return training_views(panoramas, Rotation(**rotation), appearances, indices)
+
+
+def _fitted(made: Any) -> dict[str, Any]:
+    """What the evaluator learns of a fitted method: its input shape and parameters."""
+    shape = getattr(made, "input_shape_", None)
+    return {
+        "input_shape_": None if shape is None else [int(n) for n in shape],
+        "params": _params(made),
+    }
 
 
 def _error(error: BaseException) -> dict[str, Any]:

@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from sfa_gym._checks import FEATURE_BOUND, machine_memory_bytes
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.plugin_files import PluginError, resolve_plugin
+from sfa_gym.rotation import Rotation
 from sfa_gym.sandbox.process import Worker
 
 __all__ = [
@@ -240,8 +241,6 @@ class IsolatedMethod(_Isolated):
         limits: Limits | None = None,
         hidden: Sequence[str | os.PathLike[str]] = (),
     ) -> None:
-        from sfa_gym.rotation import Rotation
-
         super().__init__(source, args, limits, hidden)
         self._read_capabilities()
         try:
@@ -273,6 +272,22 @@ class IsolatedMethod(_Isolated):
         if appearances == 1:  # the one-argument call every plug-in with the capability takes
             return self._fitted("fit_rotations", np.asarray(panoramas))
         return self._fitted("fit_rotations", np.asarray(panoramas), int(appearances))
+
+    def fit_training_views(
+        self,
+        panoramas: ArrayLike,
+        rotation: Rotation,
+        appearances: int = 1,
+        indices: ArrayLike | None = None,
+    ) -> IsolatedMethod:
+        """``fit`` on :func:`~sfa_gym.protocols.features.training_views` of ``panoramas``,
+        the views built in the worker: only the panoramas cross the pipe, and the evaluator
+        holds no copy of every view."""
+        picked = None if indices is None else np.asarray(indices, dtype=np.int64)
+        fields = dataclasses.asdict(rotation)
+        return self._fitted(
+            "fit_training_views", np.asarray(panoramas), fields, int(appearances), picked
+        )
 
     def transform(self, views: ArrayLike) -> NDArray[Any]:
         views = np.asarray(views)
