@@ -300,3 +300,40 @@ def test_an_isolated_method_is_fitted_on_views_made_in_its_worker(
     inside = load_method(_plugin(tmp_path, RECORDER, "inside.py"), isolated=False)
     with pytest.raises(AssertionError, match="the evaluator made the training views"):
         features.fit_on_views(inside, panoramas, rotation, appearances, picked)
+
+
+def test_rotation_averages_of_an_isolated_method_are_taken_in_its_worker(monkeypatch):
+    from sfa_gym.features import rotation_averaged_features
+
+    raw_pixels, args = ROOT / "baselines" / "raw_pixels.py", {"height": 2, "width": 6}
+    panoramas = np.random.default_rng(2).integers(0, 256, (5, 8, 24, 3), dtype=np.uint8)
+    inside = load_method_plugin(raw_pixels)(**args).fit(panoramas)
+    expected = rotation_averaged_features(inside, panoramas, step=1)
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("every rotation's features crossed the pipe")
+
+    monkeypatch.setattr(IsolatedMethod, "transform_rotations", refuse)
+    with load_method(raw_pixels, args) as isolated:
+        isolated.fit(panoramas)
+        got = rotation_averaged_features(isolated, panoramas, step=1)
+    assert got.dtype == np.float64 and np.array_equal(got, expected)
+
+
+WRONG_ROTATIONS = """
+    capabilities = __import__("sfa_gym.plugins").plugins.Capabilities(transform_rotations=True)
+    def transform_rotations(self, panoramas, step):
+        return np.zeros((len(panoramas), 3, 2))
+    def look(self):
+        return [0.0]
+"""
+
+
+def test_an_isolated_method_with_too_few_rotations_is_refused(tmp_path):
+    from sfa_gym.features import rotation_averaged_features
+
+    with load_method(_plugin(tmp_path, WRONG_ROTATIONS)) as method:
+        method.fit(_views())
+        shape = r"hostile: .* must have shape \(2, 24, k\), got \(2, 3, 2\)"
+        with pytest.raises(PluginError, match=shape):
+            rotation_averaged_features(method, _views(2), step=1)

@@ -115,7 +115,14 @@ def _describe(request: dict[str, Any]) -> dict[str, Any]:
 
 
 CALLS = {
-    "method": ("fit", "fit_training_views", "fit_rotations", "transform", "transform_rotations"),
+    "method": (
+        "fit",
+        "fit_training_views",
+        "fit_rotations",
+        "transform",
+        "transform_rotations",
+        "mean_over_rotations",
+    ),
     "controller": ("reset", "act"),
 }
 
@@ -127,8 +134,27 @@ def _call(made: Any, kind: str, request: dict[str, Any]) -> Any:
     if call == "fit_training_views":  # the evaluator sent panoramas: their views are made here
         made.fit(_training_views(*request["args"]))
         return _fitted(made)
+    if call == "mean_over_rotations":
+        return _mean_over_rotations(made, *request["args"])
     result = getattr(made, call)(*request.get("args", []))
     return _fitted(made) if call in ("fit", "fit_rotations") else result
+
+
+def _mean_over_rotations(made: Any, panoramas: Any, step: int) -> Any:
+    """The plug-in's ``transform_rotations`` averaged over the rotations, as the evaluator
+    averages them (float64), after checking there is one row per panorama and rotation."""
+    import numpy as np
+
+    from sfa_gym.plugin_files import PluginError
+
+    features = np.asarray(made.transform_rotations(panoramas, step), np.float64)
+    expected = (len(panoramas), panoramas.shape[2] // step)
+    if features.ndim != 3 or features.shape[:2] != expected:
+        raise PluginError(
+            f"{made.name}: transform_rotations(panoramas, step) must have shape "
+            f"({expected[0]}, {expected[1]}, k), got {features.shape}"
+        )
+    return features.mean(1)
 
 
 def _training_views(

@@ -309,6 +309,15 @@ class IsolatedMethod(_Isolated):
         shape = (len(panoramas), len(picked))
         return _features(found, shape, self.name, "transform_rotations(panoramas, step, indices)")
 
+    def mean_over_rotations(self, panoramas: ArrayLike, step: int) -> NDArray[Any]:
+        """``transform_rotations(panoramas, step)`` averaged over the rotations in the worker,
+        ``(L, k)`` float64: the features of every rotation stay there (the same mean as the
+        evaluator's; the worker checks they are ``(L, W // step, k)``)."""
+        panoramas = np.asarray(panoramas)
+        found = self._call("mean_over_rotations", self.limits.transform, panoramas, int(step))
+        what = "transform_rotations(panoramas, step) averaged over the rotations"
+        return _features(found, (len(panoramas),), self.name, what)
+
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         return dict(self._params)
 
