@@ -8,7 +8,8 @@ evaluator may know of it (name, capabilities, filled-in arguments). A first mess
 ``"describe": true`` asks only what the file declares (its ``Args`` with their defaults, the
 arguments filled in, checked): the evaluator plans a sweep from it without importing the file.
 Every later message is one call (``fit``, ``transform``, ``act``, ...) with arrays of views or
-observations (``fit_training_views`` sends panoramas, and the worker makes their rotated views);
+observations (``fit_training_views`` sends panoramas, and the worker makes their rotated views;
+``mean_over_rotations`` answers with the mean of ``transform_rotations`` over the rotations);
 the answer is ``{"ok": value}`` or ``{"error": [type names], "message": text}``.
 
 The worker holds only what it was sent: views, panoramas, observations and the rover's own

@@ -223,7 +223,8 @@ class IsolatedMethod(_Isolated):
     worker process: ``name``, ``capabilities``, ``rotation`` (methods that fit on rotations
     themselves), ``fit``, ``fit_rotations``, ``transform``, ``transform_rotations``, after
     fitting ``input_shape_``, and ``get_params`` (the method's own, values that are not JSON
-    types as their ``repr``).
+    types as their ``repr``); and two calls in which the worker does the evaluator's part, so
+    that less crosses the pipe: ``fit_training_views`` and ``mean_over_rotations``.
 
     Args:
         source: a built-in name or a plug-in file (:func:`~sfa_gym.plugins.resolve_plugin`).
