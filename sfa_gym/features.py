@@ -15,7 +15,6 @@ from numpy.typing import NDArray
 from sfa_gym.capabilities import Capabilities, get_capabilities
 from sfa_gym.phases import phase
 from sfa_gym.rotation import rotated_views
-from sfa_gym.sandbox import IsolatedMethod
 
 __all__ = ["EmbeddedFeatures", "rotation_averaged_features"]
 
@@ -53,11 +52,13 @@ def rotation_averaged_features(
     capabilities = get_capabilities(model)
     if capabilities.rotation_averaged:
         return np.asarray(model.rotation_averaged(panoramas, step, window), np.float64)
-    if isinstance(model, IsolatedMethod) and capabilities.transform_rotations:
-        # averaged in the plug-in's worker: the (L, K, k) features of every rotation (GiB for a
-        # batch of a field's panoramas at one column per rotation) never cross the pipe
-        return model.mean_over_rotations(panoramas, step)
     if capabilities.transform_rotations:
+        from sfa_gym.sandbox import IsolatedMethod  # here: the envs' start-up needs no sandbox
+
+        if isinstance(model, IsolatedMethod):
+            # averaged in the plug-in's worker: the (L, K, k) features of every rotation (GiB
+            # for a batch of a field's panoramas at one column per rotation) stay there
+            return model.mean_over_rotations(panoramas, step)
         return np.asarray(model.transform_rotations(panoramas, step=step), np.float64).mean(1)
     if window is None:
         shape = getattr(model, "input_shape_", None)

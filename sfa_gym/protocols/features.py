@@ -17,7 +17,6 @@ from sfa_gym.localization import eta_phi, eta_r
 from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod
 from sfa_gym.rotation import Rotation, check_indices, count_places, rotation_sequence
-from sfa_gym.sandbox import IsolatedMethod
 
 __all__ = [
     "VIEWS_PER_BLOCK",
@@ -123,6 +122,8 @@ def fit_on_views(
     its own worker process (:class:`~sfa_gym.sandbox.IsolatedMethod`) builds the views there
     from the panoramas it is sent: the evaluator then never holds every view of a track (GiB),
     only the panoramas; the views, and so the fit, are the same."""
+    from sfa_gym.sandbox import IsolatedMethod  # here: the experiments' start-up needs no sandbox
+
     if isinstance(method, IsolatedMethod):
         return method.fit_training_views(panoramas, rotation, appearances, indices)
     return method.fit(training_views(panoramas, rotation, appearances, indices))
