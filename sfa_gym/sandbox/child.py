@@ -143,19 +143,16 @@ def _call(made: Any, kind: str, request: dict[str, Any]) -> Any:
 
 def _mean_over_rotations(made: Any, panoramas: Any, step: int) -> Any:
     """The plug-in's ``transform_rotations`` averaged over the rotations, as the evaluator
-    averages them (float64), after checking there is one row per panorama and rotation."""
+    averages them (float64), after the checks the evaluator applies to features (one row per
+    panorama and rotation, finite, bounded)."""
     import numpy as np
 
-    from sfa_gym.plugin_files import PluginError
+    from sfa_gym.sandbox.proxies import checked_features
 
-    features = np.asarray(made.transform_rotations(panoramas, step), np.float64)
-    expected = (len(panoramas), panoramas.shape[2] // step)
-    if features.ndim != 3 or features.shape[:2] != expected:
-        raise PluginError(
-            f"{made.name}: transform_rotations(panoramas, step) must have shape "
-            f"({expected[0]}, {expected[1]}, k), got {features.shape}"
-        )
-    return features.mean(1)
+    shape = (len(panoramas), panoramas.shape[2] // step)
+    what = "transform_rotations(panoramas, step)"
+    features = checked_features(made.transform_rotations(panoramas, step), shape, made.name, what)
+    return np.asarray(features, np.float64).mean(1)
 
 
 def _training_views(

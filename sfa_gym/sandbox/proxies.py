@@ -199,7 +199,7 @@ def _numbers(value: Any, who: str, what: str) -> NDArray[Any]:
     return value
 
 
-def _features(value: Any, shape: tuple[int, ...], who: str, what: str) -> NDArray[Any]:
+def checked_features(value: Any, shape: tuple[int, ...], who: str, what: str) -> NDArray[Any]:
     """``value`` as features whose leading dimensions are ``shape`` (plus one feature axis),
     finite and within :data:`FEATURE_BOUND`, or a PluginError naming ``who`` and ``what``."""
     found = _numbers(value, who, what)
@@ -293,7 +293,7 @@ class IsolatedMethod(_Isolated):
     def transform(self, views: ArrayLike) -> NDArray[Any]:
         views = np.asarray(views)
         found = self._call("transform", self.limits.transform, views)
-        return _features(found, (len(views),), self.name, "transform(views)")
+        return checked_features(found, (len(views),), self.name, "transform(views)")
 
     def transform_rotations(
         self, panoramas: ArrayLike, step: int, indices: ArrayLike | None = None
@@ -302,22 +302,24 @@ class IsolatedMethod(_Isolated):
         if indices is None:  # the two-argument call every plug-in with the capability takes
             found = self._call("transform_rotations", self.limits.transform, panoramas, int(step))
             shape = (len(panoramas), panoramas.shape[2] // int(step))
-            return _features(found, shape, self.name, "transform_rotations(panoramas, step)")
+            return checked_features(found, shape, self.name, "transform_rotations(panoramas, step)")
         picked = np.asarray(indices, dtype=np.int64)
         found = self._call(
             "transform_rotations", self.limits.transform, panoramas, int(step), picked
         )
         shape = (len(panoramas), len(picked))
-        return _features(found, shape, self.name, "transform_rotations(panoramas, step, indices)")
+        what = "transform_rotations(panoramas, step, indices)"
+        return checked_features(found, shape, self.name, what)
 
     def mean_over_rotations(self, panoramas: ArrayLike, step: int) -> NDArray[Any]:
         """``transform_rotations(panoramas, step)`` averaged over the rotations in the worker,
         ``(L, k)`` float64: the features of every rotation stay there (the same mean as the
-        evaluator's; the worker checks they are ``(L, W // step, k)``)."""
+        evaluator's; the worker checks them with :func:`checked_features`, as
+        :meth:`transform_rotations` does here)."""
         panoramas = np.asarray(panoramas)
         found = self._call("mean_over_rotations", self.limits.transform, panoramas, int(step))
         what = "transform_rotations(panoramas, step) averaged over the rotations"
-        return _features(found, (len(panoramas),), self.name, what)
+        return checked_features(found, (len(panoramas),), self.name, what)
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         return dict(self._params)
