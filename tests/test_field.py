@@ -19,6 +19,7 @@ from sfa_gym.navigation.field import (
     FORMAT_VERSION,
     INTERPOLATIONS,
     FeatureField,
+    _cell_polynomials,
     world_hash,
 )
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
@@ -227,6 +228,42 @@ def test_interpolation_reproduces_polynomials_of_its_degree(interpolation, fn):
     np.testing.assert_allclose(field(points), expected, rtol=1e-5, atol=1e-5)
     single = np.stack([field.at(x, y) for x, y in points])
     np.testing.assert_array_equal(single, field(points))
+
+
+@pytest.mark.parametrize("interpolation", INTERPOLATIONS)
+@pytest.mark.parametrize("k", [1, 3, 65])
+def test_the_table_built_block_by_block_is_the_whole_tables_bits(interpolation, k):
+    """A table filled one cell row at a time holds the same bits as one filled at once (same
+    numbers on every field, whatever its block size)."""
+    rng = np.random.default_rng(k)
+    values = rng.normal(size=(9, 7, k)) * 10.0 ** rng.uniform(-3, 3, size=k)
+    xs, ys = np.linspace(0.0, 3.0, 7), np.linspace(-1.0, 2.0, 9)
+    whole = _cell_polynomials(values, xs, ys, interpolation, block_bytes=2**40)
+    for block_bytes in (1, 2 * whole[0].nbytes * 6):  # one cell row; two rows and a part
+        rows = _cell_polynomials(values, xs, ys, interpolation, block_bytes=block_bytes)
+        assert rows.shape == whole.shape
+        np.testing.assert_array_equal(rows.view(np.uint64), whole.view(np.uint64))
+
+
+def test_a_fields_table_costs_its_own_size_and_one_block(monkeypatch):
+    """Building a field of many features holds the table and a block of cell rows, not the
+    table's intermediate copies (four of them before)."""
+    import tracemalloc
+
+    from sfa_gym.navigation import field as field_module
+
+    monkeypatch.setattr(field_module, "_TABLE_BLOCK_BYTES", 2**18)  # a 9.4 MiB table: 36 blocks
+    values = np.random.default_rng(0).normal(size=(41, 31, 64))
+    FeatureField(values[:2, :2, :1], (0.0, 1.0, 0.0, 1.0))  # imports outside the measurement
+    tracemalloc.start()
+    try:
+        field = FeatureField(values, (0.0, 3.0, 0.0, 4.0), interpolation="catmull-rom")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    table = field._table.nbytes
+    assert table == 40 * 30 * 16 * 64 * 8
+    assert peak < 1.5 * table, f"peak {peak / 2**20:.1f} MiB for a {table / 2**20:.1f} MiB table"
 
 
 def test_catmull_rom_reproduces_quadratics_away_from_the_edges():

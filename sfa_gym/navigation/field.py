@@ -226,11 +226,18 @@ def _vandermonde_inverse(n: int) -> NDArray[np.float64]:
     return np.array([[float(rows[p][n + a]) for a in range(n)] for p in range(n)])
 
 
+_TABLE_BLOCK_BYTES = 64 * 2**20
+"""Bytes of the intermediate samples :func:`_cell_polynomials` holds at a time: it fills the
+table a block of cell rows at a time, so its peak is the table and one block, not four tables
+(a navigation field of 420 features on the campus: a table of 0.5 GB)."""
+
+
 def _cell_polynomials(
     values: NDArray[np.float64],
     xs: NDArray[np.float64],
     ys: NDArray[np.float64],
     interpolation: str,
+    block_bytes: int | None = None,
 ) -> NDArray[np.float64]:
     """Coefficients of the interpolant's polynomial in every cell.
 
@@ -238,25 +245,32 @@ def _cell_polynomials(
         ``((ny - 1) * (nx - 1), (degree + 1) ** 2, k)`` float64: row ``j * (nx - 1) + i`` is
         cell ``[xs[i], xs[i+1]] x [ys[j], ys[j+1]]``, column ``p * (degree + 1) + q`` the
         coefficient of ``u**p * v**q`` with ``u = (x - xs[i]) / dx`` and ``v = (y - ys[j]) /
-        dy``.
+        dy``; built ``block_bytes`` of samples at a time (None: :data:`_TABLE_BLOCK_BYTES`).
     """
     degree = _DEGREE[interpolation]
     d1 = degree + 1
     ny, nx, k = values.shape
+    block_bytes = _TABLE_BLOCK_BYTES if block_bytes is None else block_bytes
     # The spline is a polynomial of this degree within each cell, so its values at (d+1)^2
     # points of a cell determine the cell's coefficients exactly (a Vandermonde solve).
     mx, my = _interpolation_matrix(xs, interpolation), _interpolation_matrix(ys, interpolation)
-    # numpy's own einsum loops, one factor at a time, not BLAS (optimize=True would call it),
-    # whose kernels differ per CPU: the same table, and so the same episodes, on every CPU
-    samples = np.einsum("sj,jtk->stk", my, np.einsum("ti,jik->jtk", mx, values))  # (sy, sx, k)
-    samples = samples.reshape(ny - 1, d1, nx - 1, d1, k)
     inverse = _vandermonde_inverse(d1)  # power <- sample
-    # samples[j, b, i, a] is at v = t[b], u = t[a]; coefficients [j, i, p (u), q (v)]
-    along_u = np.einsum("pa,jbiak->jbipk", inverse, samples)
-    coefficients = np.einsum("qb,jbipk->jipqk", inverse, along_u)
+    # numpy's own einsum loops, one factor at a time, not BLAS (optimize=True would call it),
+    # whose kernels differ per CPU: the same table, and so the same episodes, on every CPU.
+    # Each block's elements are the same sums as the whole table's (tests/test_field.py).
+    along_x = np.einsum("ti,jik->jtk", mx, values)  # (ny, sx, k)
+    table = np.empty((ny - 1, nx - 1, d1, d1, k))
+    rows = max(1, block_bytes // (d1 * (nx - 1) * d1 * k * 8))
+    for j0 in range(0, ny - 1, rows):
+        j1 = min(j0 + rows, ny - 1)
+        samples = np.einsum("sj,jtk->stk", my[j0 * d1 : j1 * d1], along_x)
+        # samples[j, b, i, a] is at v = t[b], u = t[a]; coefficients [j, i, p (u), q (v)]
+        samples = samples.reshape(j1 - j0, d1, nx - 1, d1, k)
+        along_u = np.einsum("pa,jbiak->jbipk", inverse, samples)
+        table[j0:j1] = np.einsum("qb,jbipk->jipqk", inverse, along_u)
     # the node values themselves, not their rounded reconstruction: exact at the nodes
-    coefficients[:, :, 0, 0] = values[:-1, :-1]
-    return np.ascontiguousarray(coefficients.reshape((ny - 1) * (nx - 1), d1 * d1, k))
+    table[:, :, 0, 0] = values[:-1, :-1]
+    return table.reshape((ny - 1) * (nx - 1), d1 * d1, k)
 
 
 def fill_from_free(
