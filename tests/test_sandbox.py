@@ -247,6 +247,32 @@ def test_wrong_features_are_refused_naming_the_plugin(tmp_path, features, messag
             isolated.transform(_views())
 
 
+@pytest.mark.parametrize(
+    ("where", "value", "message"),
+    [
+        ((0, 0), np.nan, "non-finite features"),
+        ((4, 2), np.inf, "non-finite features"),
+        ((5, 1), -np.inf, "non-finite features"),
+        ((2, 2), -3e12, "magnitude -?3e\\+12; expected at most 1e\\+12"),
+        ((1, 0), 2e12, "magnitude 2e\\+12; expected at most 1e\\+12"),
+    ],
+)
+def test_one_bad_feature_among_good_ones_is_found(where, value, message):
+    """The checks look at every value: one bad number anywhere, of either sign, is refused."""
+    from sfa_gym.sandbox.proxies import checked_features
+
+    features = np.random.default_rng(0).uniform(-1e12, 1e12, (6, 3))
+    assert checked_features(features, (6,), "p", "transform") is features
+    features[where] = value
+    with pytest.raises(PluginError, match=f"p: transform returned .*{message}"):
+        checked_features(features, (6,), "p", "transform")
+    integers = np.full((6, 3), 10**12, dtype=np.int64)
+    assert checked_features(integers, (6,), "p", "transform") is integers
+    integers[where] = -(10**12) - 1
+    with pytest.raises(PluginError, match="magnitude 1e\\+12; expected at most"):
+        checked_features(integers, (6,), "p", "transform")
+
+
 def test_each_plugin_gets_a_worker_of_its_own_started_ahead():
     from sfa_gym.sandbox import process
 
