@@ -239,7 +239,8 @@ def test_the_table_built_block_by_block_is_the_whole_tables_bits(interpolation, 
     values = rng.normal(size=(9, 7, k)) * 10.0 ** rng.uniform(-3, 3, size=k)
     xs, ys = np.linspace(0.0, 3.0, 7), np.linspace(-1.0, 2.0, 9)
     whole = _cell_polynomials(values, xs, ys, interpolation, block_bytes=2**40)
-    for block_bytes in (1, 2 * whole[0].nbytes * 6):  # one cell row; two rows and a part
+    # one cell row per block; three rows (of 6 cells) per block, the last block two rows
+    for block_bytes in (1, 3 * whole[0].nbytes * 6):
         rows = _cell_polynomials(values, xs, ys, interpolation, block_bytes=block_bytes)
         assert rows.shape == whole.shape
         np.testing.assert_array_equal(rows.view(np.uint64), whole.view(np.uint64))

@@ -253,7 +253,7 @@ def test_wrong_features_are_refused_naming_the_plugin(tmp_path, features, messag
         ((0, 0), np.nan, "non-finite features"),
         ((4, 2), np.inf, "non-finite features"),
         ((5, 1), -np.inf, "non-finite features"),
-        ((2, 2), -3e12, "magnitude -?3e\\+12; expected at most 1e\\+12"),
+        ((2, 2), -3e12, "magnitude 3e\\+12; expected at most 1e\\+12"),
         ((1, 0), 2e12, "magnitude 2e\\+12; expected at most 1e\\+12"),
     ],
 )
