@@ -246,25 +246,24 @@ def test_the_table_built_block_by_block_is_the_whole_tables_bits(interpolation, 
         np.testing.assert_array_equal(rows.view(np.uint64), whole.view(np.uint64))
 
 
-def test_a_fields_table_costs_its_own_size_and_one_block(monkeypatch):
-    """Building a field of many features holds the table and a block of cell rows, not the
-    table's intermediate copies (four of them before)."""
+def test_a_fields_table_costs_its_own_size_and_one_block():
+    """Building a field's table of many features holds the table and a block of cell rows, not
+    the table's intermediate copies (four of them before)."""
     import tracemalloc
 
-    from sfa_gym.navigation import field as field_module
-
-    monkeypatch.setattr(field_module, "_TABLE_BLOCK_BYTES", 2**18)  # a 9.4 MiB table: 36 blocks
     values = np.random.default_rng(0).normal(size=(41, 31, 64))
-    FeatureField(values[:2, :2, :1], (0.0, 1.0, 0.0, 1.0))  # imports outside the measurement
+    xs, ys = np.linspace(0.0, 3.0, 31), np.linspace(0.0, 4.0, 41)
+    _cell_polynomials(values[:2, :2, :1], xs[:2], ys[:2], "catmull-rom")  # imports first
     tracemalloc.start()
-    try:
-        field = FeatureField(values, (0.0, 3.0, 0.0, 4.0), interpolation="catmull-rom")
+    try:  # a 9.4 MiB table in 36 blocks
+        table = _cell_polynomials(values, xs, ys, "catmull-rom", block_bytes=2**18)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    table = field._table.nbytes
-    assert table == 40 * 30 * 16 * 64 * 8
-    assert peak < 1.5 * table, f"peak {peak / 2**20:.1f} MiB for a {table / 2**20:.1f} MiB table"
+    assert table.nbytes == 40 * 30 * 16 * 64 * 8
+    assert peak < 1.5 * table.nbytes, (
+        f"peak {peak / 2**20:.1f} MiB for a {table.nbytes / 2**20:.1f} MiB table"
+    )
 
 
 def test_catmull_rom_reproduces_quadratics_away_from_the_edges():

@@ -237,7 +237,7 @@ def _cell_polynomials(
     xs: NDArray[np.float64],
     ys: NDArray[np.float64],
     interpolation: str,
-    block_bytes: int | None = None,
+    block_bytes: int = _TABLE_BLOCK_BYTES,
 ) -> NDArray[np.float64]:
     """Coefficients of the interpolant's polynomial in every cell.
 
@@ -245,12 +245,11 @@ def _cell_polynomials(
         ``((ny - 1) * (nx - 1), (degree + 1) ** 2, k)`` float64: row ``j * (nx - 1) + i`` is
         cell ``[xs[i], xs[i+1]] x [ys[j], ys[j+1]]``, column ``p * (degree + 1) + q`` the
         coefficient of ``u**p * v**q`` with ``u = (x - xs[i]) / dx`` and ``v = (y - ys[j]) /
-        dy``; built ``block_bytes`` of samples at a time (None: :data:`_TABLE_BLOCK_BYTES`).
+        dy``; built ``block_bytes`` of samples at a time.
     """
     degree = _DEGREE[interpolation]
     d1 = degree + 1
     ny, nx, k = values.shape
-    block_bytes = _TABLE_BLOCK_BYTES if block_bytes is None else block_bytes
     # The spline is a polynomial of this degree within each cell, so its values at (d+1)^2
     # points of a cell determine the cell's coefficients exactly (a Vandermonde solve).
     mx, my = _interpolation_matrix(xs, interpolation), _interpolation_matrix(ys, interpolation)
