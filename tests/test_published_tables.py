@@ -170,6 +170,30 @@ def test_navigation_controllers_show_success_and_spl_from_the_file():
         nav_controllers_table([{"results": [{"track": "x", "method": "y"}]}], {})
 
 
+def test_board_seeds_pair_each_world_with_the_reference_methods():
+    from sfa_gym.report.formatters import board_seeds_table
+
+    def record(method, track, seeds):
+        return {"track": track, "method": method, "per_world_seed": seeds}
+
+    files = [
+        {"results": [record("sfa", "t", {"100": 0.9, "101": 0.7}), record("sfa", "u", {})]},
+        {"results": [record("deep", "t", {"100": 0.8, "101": 0.75})]},
+    ]
+    lines = board_seeds_table(files, {"track": "t", "minus": "sfa"}).splitlines()
+    assert lines[0] == "| method | world 100 | world 101 |"
+    assert lines[2:] == [
+        "| sfa | 0.90 | 0.70 |",
+        "| deep | 0.80 | 0.75 |",
+        "| deep - sfa | -0.10 | +0.05 |",  # the difference on the same world, signed
+    ]
+    assert len(board_seeds_table(files, {"track": "t", "methods": "deep"}).splitlines()) == 3
+    with pytest.raises(ValueError, match=r"\['pca'\] on track 't'"):
+        board_seeds_table(files, {"track": "t", "minus": "pca"})
+    with pytest.raises(ValueError, match="needs track=NAME"):
+        board_seeds_table(files, {})
+
+
 @pytest.mark.parametrize(
     ("spec", "message"),
     [

@@ -127,6 +127,31 @@ def nav_controllers_table(files: Sequence[dict[str, Any]], options: dict[str, st
     return "\n".join(lines)
 
 
+def board_seeds_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """One track's score on each world seed, a row per method (option ``track=name``; option
+    ``methods=a,b`` chooses and orders them). With ``minus=m`` each other method also gets a
+    row of its difference from ``m`` on the same world: the paired comparison that the means'
+    intervals, taken across worlds, do not show."""
+    track = options.get("track")
+    if track is None:
+        raise ValueError("board-seeds needs track=NAME")
+    records = {r["method"]: r for r in _records(files, "board-seeds") if r["track"] == track}
+    methods = _split(options.get("methods")) or list(records)
+    missing = [m for m in [*methods, options.get("minus")] if m is not None and m not in records]
+    if missing:
+        raise ValueError(f"board-seeds: no result of {missing} on track {track!r} in the files")
+    seeds = list(records[methods[0]]["per_world_seed"])
+    lines = _head(["method", *(f"world {s}" for s in seeds)])
+    for m in methods:
+        lines.append(_row([m, *(f"{records[m]['per_world_seed'][s]:.2f}" for s in seeds)]))
+    reference = options.get("minus")
+    for m in methods if reference else []:
+        if m != reference:
+            own, base = records[m]["per_world_seed"], records[reference]["per_world_seed"]
+            lines.append(_row([f"{m} - {reference}", *(f"{own[s] - base[s]:+.2f}" for s in seeds)]))
+    return "\n".join(lines)
+
+
 def _interval(record: dict[str, Any]) -> str:
     """The 95 % interval of a board record's mean, ``[lo, hi]`` or ``(n=2)``, recomputed from
     its seeds' scores by today's method (as ``sfa-gym leaderboard table`` shows it), whichever

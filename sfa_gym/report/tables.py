@@ -65,6 +65,7 @@ GENERATORS: dict[str, Generator] = {
     "board": formatters.board_table,
     "board-parts": formatters.board_parts_table,
     "nav-controllers": formatters.nav_controllers_table,
+    "board-seeds": formatters.board_seeds_table,
     "board-seconds": cost_formatters.board_seconds_table,
     "board-memory": cost_formatters.board_memory_table,
     "board-time": formatters.board_time_table,
@@ -89,7 +90,8 @@ GENERATORS: dict[str, Generator] = {
 navigation protocol's ``results.json``), ``board`` and ``board-parts`` (the leaderboard's
 reference board), ``board-seconds`` and ``board-memory`` (what its tasks cost:
 :mod:`sfa_gym.report.cost_formatters`), ``nav-controllers`` (success and SPL of navigation
-results, controllers beside the gradient controller), ``board-time`` (a sweep's time per
+results, controllers beside the gradient controller), ``board-seeds`` (one track's score per
+world seed, paired differences), ``board-time`` (a sweep's time per
 track), ``nav-sets``
 (navigation studies' episode sets),
 ``quick-vs-full`` (the quick board's ranks against the full one's), ``descent-bound``,
