@@ -118,11 +118,11 @@ def test_board_intervals_and_seconds_come_from_the_file():
     )
     seconds = board_seconds_table(files, {"methods": "m,n"}).splitlines()
     assert seconds[2] == "| `t` | 15 | - |"  # the mean of a world seed; unrecorded: none
-    assert seconds[3] == "| these tracks, min | 0 | 0 |"
+    assert seconds[3] == "| all these tasks, minutes | 0 | 0 |"
     record["task_phases"] = [{"render": 4.0, "fit": 120.0}, {"fit": 240.0}]
     fits = board_seconds_table([{"results": [record]}], {"phase": "fit"}).splitlines()
     assert fits[0] == "| track: fit s per world seed | m |"
-    assert fits[2:] == ["| `t` | 180 |", "| these tracks, min | 6 |"]
+    assert fits[2:] == ["| `t` | 180 |", "| all these tasks, minutes | 6 |"]
     # tasks scored within another track's task: no cost of their own, left out of the mean
     shared = {**record, "method": "s", "task_seconds": [0.0, 0.0], "task_phases": [{}, {}]}
     mixed = {**record, "method": "x", "task_seconds": [90.0, 0.0]}
@@ -130,7 +130,7 @@ def test_board_intervals_and_seconds_come_from_the_file():
     both = [{"results": [shared, mixed]}]
     assert board_seconds_table(both, {}).splitlines()[2:] == [
         "| `t` | shared | 90 |",
-        "| these tracks, min | 0 | 2 |",
+        "| all these tasks, minutes | 0 | 2 |",
     ]
     assert board_seconds_table(both, {"phase": "fit"}).splitlines()[2] == "| `t` | shared | 80 |"
     # a task of a file that recorded no phases for it: no fit seconds, not an error

@@ -80,7 +80,7 @@ def board_seconds_table(files: Sequence[dict[str, Any]], options: dict[str, str]
             total[m] += sum(own)
             row.append(f"{sum(own) / len(own):.0f}")
         lines.append(_row(row))
-    lines.append(_row(["these tracks, min", *(f"{total[m] / 60:.0f}" for m in methods)]))
+    lines.append(_row(["all these tasks, minutes", *(f"{total[m] / 60:.0f}" for m in methods)]))
     return "\n".join(lines)
 
 
