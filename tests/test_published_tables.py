@@ -192,6 +192,9 @@ def test_board_seeds_pair_each_world_with_the_reference_methods():
         board_seeds_table(files, {"track": "t", "minus": "pca"})
     with pytest.raises(ValueError, match="needs track=NAME"):
         board_seeds_table(files, {})
+    files[1]["results"][0]["per_world_seed"] = {"100": 0.8}  # a world short: nothing to pair
+    with pytest.raises(ValueError, match=r"'deep' on track 't' has world seeds \['100'\]"):
+        board_seeds_table(files, {"track": "t", "minus": "sfa"})
 
 
 @pytest.mark.parametrize(

@@ -137,18 +137,25 @@ def board_seeds_table(files: Sequence[dict[str, Any]], options: dict[str, str]) 
         raise ValueError("board-seeds needs track=NAME")
     records = {r["method"]: r for r in _records(files, "board-seeds") if r["track"] == track}
     methods = _split(options.get("methods")) or list(records)
-    missing = [m for m in [*methods, options.get("minus")] if m is not None and m not in records]
+    reference = options.get("minus")
+    missing = [m for m in [*methods, reference] if m is not None and m not in records]
     if missing:
         raise ValueError(f"board-seeds: no result of {missing} on track {track!r} in the files")
-    seeds = list(records[methods[0]]["per_world_seed"])
+    scores = {m: records[m]["per_world_seed"] for m in [*methods, reference] if m is not None}
+    seeds = list(scores[methods[0]])
+    for m, own in scores.items():
+        if set(own) != set(seeds):  # a pairing needs the same worlds in every row
+            raise ValueError(
+                f"board-seeds: {m!r} on track {track!r} has world seeds {sorted(own)}, "
+                f"expected those of {methods[0]!r}: {sorted(seeds)}"
+            )
     lines = _head(["method", *(f"world {s}" for s in seeds)])
     for m in methods:
-        lines.append(_row([m, *(f"{records[m]['per_world_seed'][s]:.2f}" for s in seeds)]))
-    reference = options.get("minus")
-    for m in methods if reference else []:
-        if m != reference:
-            own, base = records[m]["per_world_seed"], records[reference]["per_world_seed"]
-            lines.append(_row([f"{m} - {reference}", *(f"{own[s] - base[s]:+.2f}" for s in seeds)]))
+        lines.append(_row([m, *(f"{scores[m][s]:.2f}" for s in seeds)]))
+    if reference is not None:
+        for m in (m for m in methods if m != reference):
+            differences = (f"{scores[m][s] - scores[reference][s]:+.2f}" for s in seeds)
+            lines.append(_row([f"{m} - {reference}", *differences]))
     return "\n".join(lines)
 
 
