@@ -138,10 +138,11 @@ def board_seeds_table(files: Sequence[dict[str, Any]], options: dict[str, str]) 
     records = {r["method"]: r for r in _records(files, "board-seeds") if r["track"] == track}
     methods = _split(options.get("methods")) or list(records)
     reference = options.get("minus")
-    missing = [m for m in [*methods, reference] if m is not None and m not in records]
+    named = [*methods, *([reference] if reference is not None else [])]
+    missing = [m for m in named if m not in records]
     if missing:
         raise ValueError(f"board-seeds: no result of {missing} on track {track!r} in the files")
-    scores = {m: records[m]["per_world_seed"] for m in [*methods, reference] if m is not None}
+    scores = {m: records[m]["per_world_seed"] for m in named}
     seeds = list(scores[methods[0]])
     for m, own in scores.items():
         if set(own) != set(seeds):  # a pairing needs the same worlds in every row
