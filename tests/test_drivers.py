@@ -262,6 +262,18 @@ def test_grid_positions_are_distinct_inside_bounds_with_reproducible_yaws():
     assert np.hypot(*np.diff(serpentine[:, :2], axis=0).T).max() <= 1.2 + 1e-9
 
 
+def test_grid_positions_of_an_env_without_its_own_grid_divide_its_arena():
+    class Arena(gym.Env):
+        arena_bounds = (-2.0, 4.0, 0.0, 3.0)
+
+    np.testing.assert_array_equal(
+        GridPositions(n=5, seed=1).poses(Arena()),
+        GridPositions(n=5, seed=1).poses(Arena.arena_bounds),
+    )
+    with pytest.raises(ValueError, match="bounds must be a rectangle"):
+        GridPositions(n=5).poses(gym.Env())
+
+
 def test_grid_positions_bad_arguments():
     with pytest.raises(ValueError, match="order"):
         GridPositions(order="spiral").poses(BOUNDS)

@@ -592,7 +592,8 @@ class GridPositions:
             source: an env whose ``grid_positions(n)`` gives the positions (through its
                 wrappers, see :func:`env_attribute`), or bounds
                 ``(xmin, xmax, ymin, ymax)``: then the positions are the centres of the ``n x n``
-                cells dividing them.
+                cells dividing them. An env without ``grid_positions`` gives its
+                ``arena_bounds``.
         """
         if isinstance(self.n, bool) or not isinstance(self.n, int | np.integer) or self.n < 1:
             raise ValueError(f"n must be a positive int, got {self.n!r}")
@@ -609,7 +610,8 @@ class GridPositions:
                     f"{xy.shape}, expected ({self.n * self.n}, 2)"
                 )
         else:
-            xmin, xmax, ymin, ymax = check_rectangle("bounds", source)
+            arena = env_attribute(source, "arena_bounds")
+            xmin, xmax, ymin, ymax = check_rectangle("bounds", source if arena is None else arena)
             fraction = (np.arange(self.n) + 0.5) / self.n
             gx, gy = np.meshgrid(xmin + fraction * (xmax - xmin), ymin + fraction * (ymax - ymin))
             xy = np.stack([gx.ravel(), gy.ravel()], axis=1)
