@@ -289,6 +289,25 @@ def test_bad_arguments_are_refused(tmp_path):
 # ------------------------------------------------------------------ damaged files
 
 
+def _mapped_files() -> set[str]:
+    return {line.split(maxsplit=5)[-1] for line in Path("/proc/self/maps").read_text().splitlines()}
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").is_file(), reason="reads Linux's /proc/self/maps")
+def test_reading_panoramas_leaves_no_chunk_mapped(long_chunks):
+    """A map left open keeps every page read resident beside the copies made of them."""
+    run = load_run(long_chunks)
+    chunks = {str(f.resolve()) for f in long_chunks.glob("chunk-*.npz")}
+    kept = [run.panoramas[[0, 40, 69]], run.panoramas[10:50], np.asarray(run.panoramas)]
+    kept += [next(iter(run.panoramas)).copy(), run.panoramas.chunk(1)[3].copy()]
+    assert len(chunks) == 3 and not chunks & _mapped_files()
+    chunk = run.panoramas.chunk(2)  # held by the caller: mapped while it is held
+    assert str((long_chunks / "chunk-00002.npz").resolve()) in _mapped_files()
+    del chunk
+    assert not chunks & _mapped_files()
+    np.testing.assert_array_equal(kept[0][1], kept[1][30])
+
+
 @pytest.fixture
 def small_run(tmp_path):
     record(TinyRover(), _mower(), tmp_path / "a.run", n_steps=12, chunk_size=5, progress=False)

@@ -43,7 +43,9 @@ seed, replays the stored actions (checking that driver and physics reproduce the
 and poses) and continues. Files other than the header and listed chunks are ignored.
 
 :func:`load_run` reads a run; the panoramas of uncompressed chunks are memory-mapped, so a
-5900-sample 600x60 run (640 MB) opens instantly and is read from disk as it is indexed. A
+5900-sample 600x60 run (640 MB) opens instantly and is read from disk as it is indexed. Each read
+maps the chunk afresh and unmaps it when done, so a process that copies panoramas out holds the
+copy only, not also the file's pages (those stay in the kernel's page cache, shared). A
 memory map skips the zip's own CRC, so the checksums are verified instead: each chunk file is
 hashed the first time its panoramas are read (about 1.5 GB/s), and :meth:`Run.verify` checks all
 chunks at once; a chunk whose bytes changed raises :class:`RunFormatError` naming it.
@@ -147,8 +149,9 @@ def _member_header(zf: zipfile.ZipFile, member: str) -> tuple[tuple[int, ...], n
         return shape, dtype, stream.tell()
 
 
-def _memmap_member(path: Path, zf: zipfile.ZipFile, member: str) -> np.memmap | None:
-    """Memory-map an uncompressed ``.npy`` member of an ``.npz``; ``None`` if compressed."""
+def _stored_offset(path: Path, zf: zipfile.ZipFile, member: str) -> int | None:
+    """Where the data of an uncompressed ``.npy`` member of an ``.npz`` starts in the file, for
+    a memory map; ``None`` if the member is compressed."""
     info = zf.getinfo(member)
     if info.compress_type != zipfile.ZIP_STORED:
         return None
@@ -163,11 +166,12 @@ def _memmap_member(path: Path, zf: zipfile.ZipFile, member: str) -> np.memmap | 
     nbytes = math.prod(shape) * dtype.itemsize
     if offset + nbytes > path.stat().st_size or data_start + nbytes != info.file_size:
         raise ValueError(f"{member} is shorter than its header says (truncated)")
-    return np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=shape)
+    return offset
 
 
 def _read_chunk(path: Path, n: int, obs_shape: tuple[int, ...]) -> dict[str, Any]:
-    """The small arrays of a chunk and its panoramas (memory-mapped, or ``None``: lazy)."""
+    """The small arrays of a chunk, and where its panoramas start in the file (``None``:
+    compressed, decoded when read)."""
     if not path.is_file():
         raise RunFormatError(f"chunk {path} is missing")
     try:
@@ -188,7 +192,7 @@ def _read_chunk(path: Path, n: int, obs_shape: tuple[int, ...]) -> dict[str, Any
                         f"expected {want} and {dtype}"
                     )
                 if name == "panoramas":
-                    out[name] = _memmap_member(path, zf, f"{name}.npy")
+                    out[name] = _stored_offset(path, zf, f"{name}.npy")
                 else:
                     with zf.open(f"{name}.npy") as stream:
                         out[name] = np.lib.format.read_array(stream, allow_pickle=False)
@@ -214,8 +218,9 @@ class ChunkedPanoramas:
     """Read-only ``(N, H, W, 3)`` uint8 array view over the chunks of a run.
 
     Indexing with an int, a slice, an integer or boolean array returns a numpy array and reads
-    only the chunks involved (memory-mapped where uncompressed; a compressed chunk is decoded
-    once and cached until another one is needed). ``np.asarray(panoramas)`` loads everything.
+    only the chunks involved (memory-mapped where uncompressed, for the read only; a compressed
+    chunk is decoded once and cached until another one is needed). ``np.asarray(panoramas)``
+    loads everything.
     Before a chunk's panoramas are first returned, its file is checked against its SHA-256
     (``checksums[c]``; ``None`` skips the check).
     """
@@ -225,11 +230,11 @@ class ChunkedPanoramas:
         files: list[Path],
         counts: list[int],
         obs_shape: tuple[int, ...],
-        maps: list[np.memmap | None],
+        offsets: list[int | None],
         checksums: list[str | None] | None = None,
     ) -> None:
         self._files = files
-        self._maps = maps
+        self._offsets = offsets
         self._checksums = checksums or [None] * len(files)
         self._verified = [digest is None for digest in self._checksums]
         self._starts = np.concatenate([[0], np.cumsum(counts, dtype=np.int64)])
@@ -260,8 +265,18 @@ class ChunkedPanoramas:
     def chunk(self, c: int) -> NDArray[np.uint8]:
         """The panoramas of chunk ``c``, ``(n_c, H, W, 3)`` (memory-mapped or decoded)."""
         self.verify(c)
-        if self._maps[c] is not None:
-            return self._maps[c]
+        offset = self._offsets[c]
+        if offset is not None:
+            # A new map per read, unmapped when the caller drops it: a map kept open would keep
+            # every page read resident in this process beside the copies made of them.
+            count = int(self._starts[c + 1] - self._starts[c])
+            return np.memmap(
+                self._files[c],
+                dtype=self.dtype,
+                mode="r",
+                offset=offset,
+                shape=(count, *self.shape[1:]),
+            )
         if self._cached is None or self._cached[0] != c:
             self._cached = (c, _load_panoramas(self._files[c]))
         return self._cached[1]
@@ -297,10 +312,9 @@ class ChunkedPanoramas:
             yield from chunk
 
     def __array__(self, dtype: Any = None, copy: bool | None = None) -> NDArray[Any]:
-        if not self._files:
-            out = np.empty(self.shape, dtype=self.dtype)
-        else:
-            out = np.concatenate([np.asarray(chunk) for _, chunk in self.iter_chunks()])
+        out = np.empty(self.shape, dtype=self.dtype)
+        for start, chunk in self.iter_chunks():  # one chunk mapped at a time
+            out[start : start + len(chunk)] = chunk
         return out if dtype is None else out.astype(dtype, copy=False)
 
 
@@ -406,14 +420,14 @@ def load_run(path: str | os.PathLike[str], *, verify: bool = True) -> Run:
     directory = Path(path)
     header = _read_header(directory)
     obs_shape = tuple(int(s) for s in header["shape"])
-    files, counts, maps, parts, checksums = [], [], [], [], []
+    files, counts, offsets, parts, checksums = [], [], [], [], []
     for c in header["chunks"]:
         file = directory / c["file"]
         chunk = _read_chunk(file, int(c["n"]), obs_shape)
         checksums.append(c.get("sha256") if verify else None)
         files.append(file)
         counts.append(int(c["n"]))
-        maps.append(chunk["panoramas"])
+        offsets.append(chunk["panoramas"])
         parts.append(chunk)
     if sum(counts) != header.get("n", sum(counts)):
         raise RunFormatError(
@@ -429,7 +443,7 @@ def load_run(path: str | os.PathLike[str], *, verify: bool = True) -> Run:
     metadata = {k: v for k, v in header.items() if k != "chunks"}
     return Run(
         path=directory,
-        panoramas=ChunkedPanoramas(files, counts, obs_shape, maps, checksums),
+        panoramas=ChunkedPanoramas(files, counts, obs_shape, offsets, checksums),
         poses=stacked("poses"),
         time=stacked("time"),
         actions=stacked("actions"),
