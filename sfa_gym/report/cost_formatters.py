@@ -1,7 +1,8 @@
 """Markdown tables of what a board's tasks cost, from the records of a gathered board file
 (``task_seconds``, ``task_phases``, ``task_peak_rss_mb``): tracks as rows, methods as
 columns. Options of both: ``tracks=a,b`` and ``methods=a,b`` choose and order rows and
-columns, as for :func:`~sfa_gym.report.formatters.board_table`."""
+columns, as for :func:`~sfa_gym.report.formatters.board_table`. Beside them, the memory of
+reading a recorded run (:func:`run_reading_table`)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from typing import Any
 
 from sfa_gym.report.formatters import _head, _records, _row, _split
 
-__all__ = ["board_memory_table", "board_seconds_table"]
+__all__ = ["board_memory_table", "board_seconds_table", "run_reading_table"]
 
 
 def _grid(
@@ -104,4 +105,22 @@ def board_memory_table(files: Sequence[dict[str, Any]], options: dict[str, str])
             evaluator = max(p["evaluator"] for p in peaks) / 1024
             row.append(f"{plugin:.2f} ({evaluator:.2f})")
         lines.append(_row(row))
+    return "\n".join(lines)
+
+
+def run_reading_table(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
+    """What a process holds after reading a run's panoramas, each way in its own process
+    (``benchmarks/bench_run_reading.py``): the copy, the peak's rise and its ratio to the
+    reference read, and the anonymous and file-backed memory added, in MB, and the read's
+    seconds; per file, the commit whose reader it measured."""
+    head = ["read (reader's commit)", "copy MB", "peak rise MB", "ratio"]
+    lines = _head([*head, "anonymous MB", "file-backed MB", "read s"])
+    for data in files:
+        commit = (data.get("commit") or "unknown")[:7]
+        for name, row in data["rows"].items():
+            cells = [row["copy_mb"], row["peak_growth_mb"]]
+            cells = [f"{v:.0f}" for v in cells] + [f"{row['ratio']:.2f}"]
+            cells += [f"{row['anon_growth_mb']:.0f}", f"{row['file_growth_mb']:.0f}"]
+            cells.append(f"{row['read_s']:.2f}")
+            lines.append(_row([f"`{name}` ({commit})", *cells]))
     return "\n".join(lines)

@@ -78,6 +78,7 @@ GENERATORS: dict[str, Generator] = {
     "item-density": study_formatters.item_density_table,
     "appearance-change": formatters.appearance_change_table,
     "textures-build": formatters.textures_build_table,
+    "run-reading": cost_formatters.run_reading_table,
     "paper-pipeline": study_formatters.paper_pipeline_table,
     "release-drift": study_formatters.release_drift_table,
     "appearance-order": study_formatters.appearance_order_table,
