@@ -20,7 +20,7 @@ Usage (from the repository root; under a minute, Linux only)::
         --out published/benchmarks/run_reading_6a2d1a6.json
 
 Writes ``published/benchmarks/run_reading.json`` (``--out``; it records the reader's commit)
-and prints a table.
+and prints the table of docs/speed.md for it.
 """
 
 from __future__ import annotations
@@ -84,6 +84,8 @@ class NoiseCamera(gym.Env):
 
 
 def _status_mb() -> dict[str, float]:
+    # read here, not through sfa_gym.memory: a child may import an older checkout's sfa_gym
+    # (--reader), which is asked for nothing but its run reader
     fields = {}
     for line in Path("/proc/self/status").read_text().splitlines():
         name, _, value = line.partition(":")
@@ -156,28 +158,23 @@ def main(args: Args) -> None:
             NoiseCamera(), GridPositions(n=side), run_dir, n_steps=args.panoramas, chunk_size=CHUNK
         )
         rows = {case: _measure(case, run_dir, args.reader) for case in CASES}
+    # imported here, not at the top: a child runs this file against the --reader checkout,
+    # which may predate the table
+    from sfa_gym.report.cost_formatters import run_reading_table
+
     reference = rows[CASES[0]]["peak_growth_mb"]
-    print(
-        f"{'read':<24} {'copy MB':>8} {'peak growth MB':>15} {'ratio':>6} {'+anon':>7}"
-        f" {'+file':>7} {'read s':>7}"
-    )
-    for case, row in rows.items():
+    for row in rows.values():
         row["ratio"] = row["peak_growth_mb"] / reference
-        print(
-            f"{case:<24} {row['copy_mb']:8.0f} {row['peak_growth_mb']:15.0f} {row['ratio']:6.2f}"
-            f" {row['anon_growth_mb']:7.0f} {row['file_growth_mb']:7.0f} {row['read_s']:7.2f}"
-        )
-    write_json_atomic(
-        args.out,
-        {
-            "commit": git_commit(args.reader),
-            "panoramas": args.panoramas,
-            "panorama": list(SHAPE[:2]),
-            "chunk_size": CHUNK,
-            "ratio_to": CASES[0],
-            "rows": rows,
-        },
-    )
+    result = {
+        "commit": git_commit(args.reader),
+        "panoramas": args.panoramas,
+        "panorama": list(SHAPE[:2]),
+        "chunk_size": CHUNK,
+        "ratio_to": CASES[0],
+        "rows": rows,
+    }
+    write_json_atomic(args.out, result)
+    print(run_reading_table([result], {}))
     print(f"wrote {args.out}")
 
 

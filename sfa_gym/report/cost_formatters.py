@@ -118,9 +118,13 @@ def run_reading_table(files: Sequence[dict[str, Any]], options: dict[str, str]) 
     for data in files:
         commit = (data.get("commit") or "unknown")[:7]
         for name, row in data["rows"].items():
-            cells = [row["copy_mb"], row["peak_growth_mb"]]
-            cells = [f"{v:.0f}" for v in cells] + [f"{row['ratio']:.2f}"]
-            cells += [f"{row['anon_growth_mb']:.0f}", f"{row['file_growth_mb']:.0f}"]
-            cells.append(f"{row['read_s']:.2f}")
+            cells = [
+                f"{row['copy_mb']:.0f}",
+                f"{row['peak_growth_mb']:.0f}",
+                f"{row['ratio']:.2f}",
+                f"{row['anon_growth_mb']:.0f}",
+                f"{row['file_growth_mb']:.0f}",
+                f"{row['read_s']:.2f}",
+            ]
             lines.append(_row([f"`{name}` ({commit})", *cells]))
     return "\n".join(lines)
