@@ -209,3 +209,15 @@ def test_board_seeds_pair_each_world_with_the_reference_methods():
 def test_bad_markers_are_refused_with_what_is_wrong(spec, message):
     with pytest.raises(ValueError, match=re.escape(message)):
         render(spec, ROOT)
+
+
+def test_run_reading_rows_name_the_reader_and_whether_it_had_uncommitted_changes():
+    from sfa_gym.report.cost_formatters import run_reading_table
+
+    row = {"copy_mb": 288.4, "peak_growth_mb": 322.0, "ratio": 0.944, "read_s": 0.18}
+    row |= {"anon_growth_mb": 289.0, "file_growth_mb": 0.0}
+    clean = {"commit": "aa72c751053303cb2c1d64adca0340b7ed2fa60b", "rows": {"panoramas[:]": row}}
+    dirty = {**clean, "commit": clean["commit"] + "+dirty"}
+    lines = run_reading_table([clean, dirty], {}).splitlines()
+    assert lines[2] == "| `panoramas[:]` (aa72c75) | 288 | 322 | 0.94 | 289 | 0 | 0.18 |"
+    assert lines[3].startswith("| `panoramas[:]` (aa72c75+dirty) |")

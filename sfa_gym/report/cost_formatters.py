@@ -116,7 +116,9 @@ def run_reading_table(files: Sequence[dict[str, Any]], options: dict[str, str]) 
     head = ["read (reader's commit)", "copy MB", "peak rise MB", "ratio"]
     lines = _head([*head, "anonymous MB", "file-backed MB", "read s"])
     for data in files:
-        commit = (data.get("commit") or "unknown")[:7]
+        commit = data.get("commit") or "unknown"
+        # the short hash, keeping git_commit's "+dirty": uncommitted changes were measured too
+        commit = commit[:7] + commit[40:]
         for name, row in data["rows"].items():
             cells = [
                 f"{row['copy_mb']:.0f}",
