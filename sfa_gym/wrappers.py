@@ -55,7 +55,7 @@ class SlowFeatureObservation(
             ``step=1`` averages over every column: the features then stay the same (to
             rounding) when the rover turns by whole columns (the camera's compass views shift
             the panorama exactly), and wobble far less over arbitrary headings than with the
-            paper's 5-column windows (``studies/camera_equivariance.py``); hierarchical SFA
+            paper's 5-column windows (``eval/studies/camera_equivariance.py``); hierarchical SFA
             computes it at about five times the cost of ``step=5``.
 
     Example:

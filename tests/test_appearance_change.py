@@ -1,10 +1,10 @@
-"""The appearance-change study's measures (studies/appearance_change.py)."""
+"""The appearance-change study's measures (eval/studies/appearance_change.py)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from studies.appearance_change import aligned_change, partner
+from eval.studies.appearance_change import aligned_change, partner
 
 
 def test_a_turned_copy_of_a_panorama_has_no_change_once_aligned():

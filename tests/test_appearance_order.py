@@ -1,6 +1,6 @@
 """The appearance-order study's pieces: reading SFA's errors from the protocol's results,
 the means over the worlds and the table generated from them (the runs themselves:
-``python -m studies.appearance_order``)."""
+``python -m eval.studies.appearance_order``)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-from studies.appearance_order import (
+from eval.studies.appearance_order import (
     QUICK,
     REGRESSIONS,
     SETTINGS,
@@ -58,7 +58,7 @@ def test_rows_are_means_over_the_worlds_with_intervals():
 
 
 def test_the_table_has_a_row_per_training_and_regression():
-    from sfa_gym.report.study_formatters import appearance_order_table
+    from eval.tables.study_formatters import appearance_order_table
 
     def world(offset: float) -> dict:
         out = {r: condition_errors(_results(offset), r) for r in REGRESSIONS}

@@ -137,3 +137,19 @@ def test_the_protocols_import_no_experiment_leaderboard_or_command_line():
             in (["sfa_gym", "experiments"], ["sfa_gym", "leaderboard"], ["sfa_gym", "cli"])
         )
         assert not reached, f"{module} imports {reached}"
+
+
+def test_the_package_imports_none_of_the_checkouts_folders():
+    """eval/, baselines/, envs/ and tests/ are not installed: the package imports none of them,
+    except the docs-tables command, which imports the checkout's eval/tables/ from the root it
+    was given."""
+    outside = {"eval", "benchmarks", "studies", "baselines", "envs", "tests"}
+    found = {}
+    for name, path in _modules().items():
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if isinstance(node, ast.ImportFrom) and not node.level:
+                names = [node.module or ""]
+            if reached := {n.split(".")[0] for n in names} & outside:
+                found.setdefault(name, set()).update(reached)
+    assert found == {"sfa_gym.cli.docs": {"eval"}}, found

@@ -1,5 +1,5 @@
-"""Smoke run of the SFA benchmark script (benchmarks/bench_sfa.py) with a tiny budget, our engine
-only (MDP needs more training data than a smoke run has to train the upper layers)."""
+"""Smoke run of the SFA benchmark script (eval/benchmarks/bench_sfa.py) with a tiny budget, our
+engine only (MDP needs more training data than a smoke run has to train the upper layers)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ def test_bench_sfa_runs_every_part_and_reports_per_view_figures(tmp_path):
     argv = ["--frames", "120", "--test-frames", "30", "--locations", "12"]
     argv += ["--rotation-locations", "4", "--skip-mdp", "--no-progress", "--json", str(out)]
     proc = subprocess.run(
-        [sys.executable, "-m", "benchmarks.bench_sfa", *argv],
+        [sys.executable, "-m", "eval.benchmarks.bench_sfa", *argv],
         cwd=ROOT,
         capture_output=True,
         text=True,

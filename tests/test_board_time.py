@@ -1,4 +1,4 @@
-"""benchmarks/board_time.py: a sweep's time per track from its task files (their format:
+"""eval/benchmarks/board_time.py: a sweep's time per track from its task files (their format:
 sfa_gym.leaderboard.task_files), and the docs' ``board-time`` table of it."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from benchmarks.board_time import board_time
+from eval.benchmarks.board_time import board_time
+from eval.tables.formatters import board_time_table
 from sfa_gym.leaderboard.task_files import write_task_file
-from sfa_gym.report.formatters import board_time_table
 
 START = datetime.datetime(2026, 1, 1, 12, 0, 0, tzinfo=datetime.UTC)
 

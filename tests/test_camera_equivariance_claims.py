@@ -1,5 +1,5 @@
 """The camera-equivariance claims of docs/localization.md at full size, through the study that
-measures them (``python -m studies.camera_equivariance``, 6 positions, networks trained on the
+measures them (``python -m eval.studies.camera_equivariance``, 6 positions, networks trained on the
 paper's 30 x 30 grid: about 6-10 minutes on 2 cores).
 
 Marked ``expensive``: run with ``.venv/bin/python -m pytest -m expensive
@@ -31,7 +31,7 @@ pytestmark = pytest.mark.expensive
 def results(tmp_path_factory):
     out = tmp_path_factory.mktemp("equivariance") / "equivariance.json"
     proc = subprocess.run(
-        [sys.executable, "-m", "studies.camera_equivariance", "--json", str(out)],
+        [sys.executable, "-m", "eval.studies.camera_equivariance", "--json", str(out)],
         cwd=ROOT,
         capture_output=True,
         text=True,

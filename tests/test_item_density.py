@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import dataclasses
 
-from sfa_gym.report.study_formatters import item_density_table
+from eval.studies.item_density import ITEMS, dense_spec
+from eval.tables.study_formatters import item_density_table
 from sfa_gym.sim.worlds.spec import load_world_spec
-from studies.item_density import ITEMS, dense_spec
 
 
 def test_a_density_multiplies_every_item_count_and_nothing_else():

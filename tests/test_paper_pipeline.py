@@ -1,12 +1,12 @@
 """The paper-pipeline study's summary and its generated table (the runs themselves are the
-study's: ``python -m studies.paper_pipeline``)."""
+study's: ``python -m eval.studies.paper_pipeline``)."""
 
 from __future__ import annotations
 
 import pytest
 
-from sfa_gym.report.study_formatters import paper_pipeline_table
-from studies.paper_pipeline import ROWS, Args, main, summarise
+from eval.studies.paper_pipeline import ROWS, Args, main, summarise
+from eval.tables.study_formatters import paper_pipeline_table
 
 
 def test_summary_is_the_mean_over_worlds_with_a_t_interval_from_three_worlds():
@@ -62,7 +62,7 @@ def test_merge_refuses_a_file_of_other_worlds(tmp_path):
 def test_merge_keeps_the_other_rows_in_the_order_of_rows(tmp_path, monkeypatch):
     import json
 
-    import studies.paper_pipeline as study
+    import eval.studies.paper_pipeline as study
 
     path = tmp_path / "pp.json"
     kept = {name: {"change": f"kept {name}"} for name in ("raster", "outputs_4")}

@@ -1,7 +1,7 @@
 """The navigation agents (sfa_gym.agents, ``sfa-gym agent train|eval|play``): real PPO training
 on a real feature field and on rendered panoramas, the learning curve and checkpoints, resuming,
 scoring a saved model, recording a rollout, and refusing bad arguments. Small budgets: these
-check the machinery, not the agent's skill (studies/ppo_nav_sweep.py measures that)."""
+check the machinery, not the agent's skill (eval/studies/ppo_nav_sweep.py measures that)."""
 
 from __future__ import annotations
 

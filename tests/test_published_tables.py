@@ -7,8 +7,7 @@ import shutil
 
 import pytest
 
-from sfa_gym.cli.main import main
-from sfa_gym.report.tables import (
+from eval.tables.tables import (
     check_pages,
     default_pages,
     regenerate,
@@ -16,6 +15,7 @@ from sfa_gym.report.tables import (
     repository_root,
     table_specs,
 )
+from sfa_gym.cli.main import main
 
 ROOT = repository_root()
 README = ROOT / "README.md"
@@ -91,8 +91,8 @@ def test_regenerate_fills_an_empty_table_from_its_file(tmp_path):
 
 
 def test_board_intervals_and_seconds_come_from_the_file():
-    from sfa_gym.report.cost_formatters import board_memory_table, board_seconds_table
-    from sfa_gym.report.formatters import board_table
+    from eval.tables.cost_formatters import board_memory_table, board_seconds_table
+    from eval.tables.formatters import board_table
 
     record = {
         "track": "t",
@@ -109,7 +109,7 @@ def test_board_intervals_and_seconds_come_from_the_file():
     assert "| `t` (1) | MAE % | **2.00** [0.00, 8.45] | **2.00** (n=2) |" in board_table(
         files, {"intervals": "1", "methods": "m,two"}
     )
-    from sfa_gym.report.formatters import quick_vs_full_table
+    from eval.tables.formatters import quick_vs_full_table
 
     rows = [{"track": "t", "kendall_tau": 0.8, "quick_order": ["a", "b"], "full_order": ["b", "a"]}]
     assert (
@@ -148,7 +148,7 @@ def test_board_intervals_and_seconds_come_from_the_file():
 
 
 def test_navigation_controllers_show_success_and_spl_from_the_file():
-    from sfa_gym.report.formatters import nav_controllers_table
+    from eval.tables.formatters import nav_controllers_table
 
     def record(method, track, seeds, spl):
         score = {"mean": sum(seeds) / len(seeds), "ci95": None, "higher_is_better": True}
@@ -171,7 +171,7 @@ def test_navigation_controllers_show_success_and_spl_from_the_file():
 
 
 def test_board_seeds_pair_each_world_with_the_reference_methods():
-    from sfa_gym.report.formatters import board_seeds_table
+    from eval.tables.formatters import board_seeds_table
 
     def record(method, track, seeds):
         return {"track": track, "method": method, "per_world_seed": seeds}
@@ -212,7 +212,7 @@ def test_bad_markers_are_refused_with_what_is_wrong(spec, message):
 
 
 def test_run_reading_rows_name_the_reader_and_whether_it_had_uncommitted_changes():
-    from sfa_gym.report.cost_formatters import run_reading_table
+    from eval.tables.cost_formatters import run_reading_table
 
     row = {"copy_mb": 288.4, "peak_growth_mb": 322.0, "ratio": 0.944, "read_s": 0.18}
     row |= {"anon_growth_mb": 289.0, "file_growth_mb": 0.0}

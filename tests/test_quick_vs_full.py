@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
+from eval.studies.quick_vs_full import Args, compare, main
 from sfa_gym.leaderboard.results import make_result, result_path, write_result
 from sfa_gym.leaderboard.tracks import load_track
-from studies.quick_vs_full import Args, compare, main
 
 ROOT = Path(__file__).resolve().parents[1]
 

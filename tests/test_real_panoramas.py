@@ -7,9 +7,9 @@ import cv2
 import numpy as np
 import pytest
 
+from eval.studies.image_statistics import REAL_HEADINGS, _exposed, _real
 from sfa_gym.sim.camera import PanoramaSpec
 from sfa_gym.sim.camera.sensor import SensorSpec
-from studies.image_statistics import REAL_HEADINGS, _exposed, _real
 
 
 def test_the_exposure_puts_the_mean_grey_level_at_the_target_and_clips_highlights():

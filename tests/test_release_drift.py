@@ -1,6 +1,6 @@
 """The release-drift study's pieces: the release's camera through the render cache, the
 release's results read as written, the summary over worlds (the runs themselves are the study's:
-``python -m studies.release_drift``)."""
+``python -m eval.studies.release_drift``)."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ import json
 import numpy as np
 import pytest
 
+from eval.studies.release_drift import ReleaseCamera, release_world, summarise
 from sfa_gym.recording.cache import RunCache, RunRequest
 from sfa_gym.recording.drivers import GridPositions
 from sfa_gym.sim.camera import PanoramaSpec
 from sfa_gym.sim.env import OmniRoverEnv
-from studies.release_drift import ReleaseCamera, release_world, summarise
 
 
 def test_the_release_camera_renders_views_that_turn_with_the_rover(tmp_path):
@@ -68,7 +68,7 @@ def test_the_release_results_are_read_as_written_and_summarised(tmp_path):
 
 
 def test_the_table_shows_each_code_camera_and_regression_from_the_file():
-    from sfa_gym.report.study_formatters import release_drift_table
+    from eval.tables.study_formatters import release_drift_table
 
     def entries(x, y):
         return [{"mean": x, "interval": [x - 1, x + 1]}, {"mean": y, "interval": None}]
@@ -94,7 +94,7 @@ def test_the_table_shows_each_code_camera_and_regression_from_the_file():
 
 
 def test_the_release_is_compared_on_the_env_s_own_world_only(tmp_path):
-    from studies.release_drift import Args, main
+    from eval.studies.release_drift import Args, main
 
     with pytest.raises(SystemExit, match="--release compares the env's own world"):
         main(Args(world="paper_sim_maze", release=tmp_path, json=tmp_path / "x.json"))

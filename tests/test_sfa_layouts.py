@@ -10,7 +10,7 @@ import pytest
 from test_sfa_heap import assert_same_layers
 
 import sfa_gym.sfa._sources as sources
-from benchmarks.bench_sfa_layouts import previous_layouts
+from eval.benchmarks.bench_sfa_layouts import previous_layouts
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
 from sfa_gym.sfa._layers import Affine
 from sfa_gym.sfa.synthetic import synthetic_panoramas

@@ -9,10 +9,10 @@ In a static world the features of a place (:func:`sfa_gym.features.rotation_aver
 averaged over every column, ``step=1``) depend on the rover's position only: the compass camera
 turns the panorama by whole columns exactly (a turn by ``+2*pi*k/W`` shifts it by ``-k`` columns),
 and the average over all ``W`` shifts does not change under such a shift; a turn by a fraction of a
-column changes it slightly (``benchmarks/bench_field.py`` measures how much). A field is therefore
-rendered once per grid node, facing yaw 0, and **ignores the heading**. Rendering a panorama costs
-~8-11 ms; a query of the field costs microseconds, so an env that steps physics only can run
-thousands of steps per second.
+column changes it slightly (``eval/benchmarks/bench_field.py`` measures how much). A field is
+therefore rendered once per grid node, facing yaw 0, and **ignores the heading**. Rendering a
+panorama costs ~8-11 ms; a query of the field costs microseconds, so an env that steps physics
+only can run thousands of steps per second.
 
 Grid. The nodes cover the drivable area ``(xmin, xmax, ymin, ymax)`` including its edges:
 ``xs = linspace(xmin, xmax, nx)`` with ``nx = ceil((xmax - xmin) / spacing) + 1`` (likewise
@@ -34,8 +34,8 @@ vectorised one). All three methods pass through the node values exactly:
   continuously differentiable, global; an axis of fewer than 4 nodes gets the highest degree
   its nodes allow).
 
-Points outside the grid are clamped to it. ``benchmarks/bench_field.py`` compares the methods with
-rendered features at 200 random poses (the ``paper_sim`` network,
+Points outside the grid are clamped to it. ``eval/benchmarks/bench_field.py`` compares the
+methods with rendered features at 200 random poses (the ``paper_sim`` network,
 ``published/benchmarks/field.json``): the median distance between field and rendering is 0.334 /
 0.338 / 0.353 (linear / Catmull-Rom / cubic) of the features' mean change over 0.1 m at 0.1 m
 spacing, 0.205 / 0.208 / 0.224 at 0.05 m. Catmull-Rom is as close as bilinear and has a continuous

@@ -28,7 +28,7 @@ mast, so their pixels do not depend on the heading; each panorama column is resa
 at its own compass azimuth ``heading + 2*pi*c/W``. Turning by whole columns then shifts the
 panorama exactly; the fraction of a column (quantised to 1/32 of a supersampled pixel, the
 resolution of ``cv2.remap``'s fixed-point maps) moves the resampling positions, as a real
-sensor's pixels move over the image. ``studies/camera_equivariance.py`` measures both.
+sensor's pixels move over the image. ``eval/studies/camera_equivariance.py`` measures both.
 
 What the views see: the model's geoms of groups 0-2 (MuJoCo's default), no sites, no shadows or
 reflections. A headlight is moved to the eye and made to shine in all directions, so that every
@@ -38,7 +38,7 @@ Cost (llvmpipe, CPU only): rasterising the views' pixels dominates, then MuJoCo'
 driver's work per drawn geom; readback and resampling are a few per cent. Each view draws only
 the geoms whose bounding sphere meets its frustum, and a skybox as smooth as MuJoCo's builtin
 gradient is sampled from its nearest texel instead of trilinearly (the sky's cube-map lookups
-were a third of the cost; the pixels stay within one grey level). ``benchmarks/bench_env.py``
+were a third of the cost; the pixels stay within one grey level). ``eval/benchmarks/bench_env.py``
 measures it all.
 """
 

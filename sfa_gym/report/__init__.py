@@ -1,2 +1,0 @@
-"""Published figures: the tables of README.md and docs/ generated from the committed result
-files under ``published/`` (:mod:`sfa_gym.report.tables`)."""
