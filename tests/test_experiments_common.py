@@ -8,6 +8,7 @@ from typing import get_args
 import numpy as np
 import pytest
 
+from eval.synthetic import synthetic_panoramas
 from sfa_gym.experiments import GridExperiment, SFASettings, TrajectoryExperiment
 from sfa_gym.experiments.common import SlowFeatureMethod
 from sfa_gym.experiments.figures import quarter_outputs
@@ -16,7 +17,6 @@ from sfa_gym.protocols.features import fit_method, view_features
 from sfa_gym.protocols.settings import NETWORKS, NetworkName, WeightSharing
 from sfa_gym.rotation import Rotation
 from sfa_gym.sfa.network import WEIGHT_SHARING
-from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 
 class Pixels:

@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from eval.synthetic import synthetic_panoramas
 from sfa_gym.rotation import rotated_views, rotation_sequence
 from sfa_gym.sfa import HierarchicalSFA, presets
-from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 H, W = 10, 40
 

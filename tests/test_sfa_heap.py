@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import sfa_gym.sfa.network as network
+from eval.synthetic import synthetic_panoramas
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
 from sfa_gym.sfa._heap import _glibc
-from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 glibc_only = pytest.mark.skipif(_glibc() is None, reason="mallopt is glibc's; a no-op elsewhere")
 

@@ -11,9 +11,9 @@ from test_sfa_heap import assert_same_layers
 
 import sfa_gym.sfa._sources as sources
 from eval.benchmarks.bench_sfa_layouts import previous_layouts
+from eval.synthetic import synthetic_panoramas
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
 from sfa_gym.sfa._layers import Affine
-from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 
 def _fit(panoramas: np.ndarray, sharing: str) -> HierarchicalSFA:

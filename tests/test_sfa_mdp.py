@@ -2,7 +2,7 @@
 
 Data: a small synthetic world (coloured blocks around an arena, seen from a camera moving along
 a smooth open path), rendered analytically as periodic panoramas by
-:mod:`sfa_gym.sfa.synthetic`. An open path gives slow features with well separated delta values,
+:mod:`eval.synthetic`. An open path gives slow features with well separated delta values,
 so outputs can be compared one by one; each comparison first checks that separation (a
 near-degenerate pair of outputs is only determined up to a rotation, and then only the subspace
 could be compared).
@@ -17,8 +17,9 @@ import warnings
 import numpy as np
 import pytest
 
+from eval import synthetic
 from sfa_gym.rotation import rotated_views
-from sfa_gym.sfa import SFA, HierarchicalSFA, RankDeficiencyWarning, presets, synthetic
+from sfa_gym.sfa import SFA, HierarchicalSFA, RankDeficiencyWarning, presets
 
 pytestmark = pytest.mark.skipif(
     importlib.util.find_spec("mdp") is None,
@@ -37,7 +38,7 @@ def smooth_path(n: int, seed: int) -> np.ndarray:
 
 
 def landmark_panoramas(poses: np.ndarray, height: int, width: int) -> np.ndarray:
-    """16 coloured blocks around the path (:func:`sfa_gym.sfa.synthetic.landmark_panoramas`)."""
+    """16 coloured blocks around the path (:func:`eval.synthetic.landmark_panoramas`)."""
     return synthetic.landmark_panoramas(poses, height, width, n_landmarks=16)
 
 

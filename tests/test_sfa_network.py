@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from sklearn.exceptions import NotFittedError
 
+from eval.synthetic import synthetic_panoramas
 from sfa_gym.rotation import rotated_views
 from sfa_gym.sfa import (
     HierarchicalSFA,
@@ -21,7 +22,6 @@ from sfa_gym.sfa import (
     shortcut_applies,
 )
 from sfa_gym.sfa._layers import Affine, LayerParams
-from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 H, W = 10, 40
 

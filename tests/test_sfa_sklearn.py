@@ -15,8 +15,8 @@ from sklearn.model_selection import GridSearchCV
 from sklearn.pipeline import Pipeline
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
+from eval.synthetic import synthetic_panoramas
 from sfa_gym.sfa import SFA, HierarchicalSFA, QuadraticExpansion, RankDeficiencyWarning, presets
-from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 IMAGE_INPUT = (
     "HierarchicalSFA takes images (N, H, W, 3) uint8, not the 2-d float X this check feeds; "

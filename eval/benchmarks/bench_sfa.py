@@ -2,7 +2,7 @@
 
 Part 1, same architecture and data for both: the ``paper_sim`` preset (four layers) trained on
 ``--frames`` views of 40 x 350 along a smooth path (seeded synthetic panoramas of
-:mod:`sfa_gym.sfa.synthetic`, or rendered by the env with ``--rendered``); per backend: training
+:mod:`eval.synthetic`, or rendered by the env with ``--rendered``); per backend: training
 time per frame, peak memory, inference time per panorama, and the agreement of the eight slow
 features on held-out views (|corr| per output, and the canonical correlations of the two 8-d
 feature spaces).
@@ -54,8 +54,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from eval.synthetic import landmark_panoramas, smooth_path
 from sfa_gym.files import write_json_atomic
-from sfa_gym.sfa.synthetic import landmark_panoramas, smooth_path
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -36,11 +36,11 @@ import tyro
 import sfa_gym.sfa._rotation_source as rotation_source
 import sfa_gym.sfa._sources as sources
 import sfa_gym.sfa._training as training
+from eval.synthetic import synthetic_panoramas
 from sfa_gym.files import write_json_atomic
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.sfa import RankDeficiencyWarning
 from sfa_gym.sfa._layers import LayerParams
-from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 
 @dataclass(frozen=True)

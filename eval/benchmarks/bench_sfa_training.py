@@ -24,9 +24,9 @@ from typing import Any, Literal
 
 import tyro
 
+from eval.synthetic import synthetic_panoramas
 from sfa_gym.rotation import rotated_views
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
-from sfa_gym.sfa.synthetic import synthetic_panoramas
 
 __all__ = ["benchmark_rotation_training", "benchmark_view_training"]
 
