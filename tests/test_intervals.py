@@ -172,7 +172,7 @@ def test_the_published_results_verify_unchanged_and_show_in_range():
 
 
 def test_the_navigation_table_prints_wilson_intervals_in_brackets():
-    from sfa_gym.experiments.navigation import format_navigation_table
+    from sfa_gym.cli.navigate import format_navigation_table
     from sfa_gym.navigation.evaluate import summarize as summarize_episodes
 
     episode = dict(

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import sfa_gym  # noqa: F401  (registers the ids)
-from sfa_gym.experiments.navigation import NavigationExperiment
+from sfa_gym.cli.navigate import NavigationExperiment
 from sfa_gym.features import rotation_averaged_features
 from sfa_gym.navigation.controllers import GradientController, GradientSettings, slowness_weights
 from sfa_gym.navigation.evaluate import run_episode

@@ -35,7 +35,7 @@ def test_track_params_are_the_protocol_config():
 
 def test_a_non_navigation_env_or_negative_rendered_episodes_are_refused(tmp_path):
     from sfa_gym.cli.main import main
-    from sfa_gym.experiments.navigation import NavigationExperiment
+    from sfa_gym.cli.navigate import NavigationExperiment
 
     with pytest.raises(ValueError, match="'sfa_gym/OmniRover-v0' is not a navigation env; "):
         dataclasses.replace(navigation.Config(), env_id="sfa_gym/OmniRover-v0").validate()
@@ -64,7 +64,7 @@ def test_rover_fits_is_the_rule_reset_checks():
 
 
 def test_navigate_recomputes_a_model_stored_with_other_settings(tmp_path, capsys):
-    from sfa_gym.experiments.navigation import NavigationExperiment, run_navigation_experiment
+    from sfa_gym.cli.navigate import NavigationExperiment, run_navigation_experiment
     from sfa_gym.navigation.field import FeatureField
 
     config = NavigationExperiment(

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from test_leaderboard_outdoor import TINY_PARAMS
 
-from sfa_gym.experiments import OutdoorExperiment
+from sfa_gym.cli.localize import OutdoorExperiment
 from sfa_gym.leaderboard.tracks import TrackError, track_from_dict
 from sfa_gym.protocols.outdoor import Config, requests
 from sfa_gym.sim.worlds import load_world_spec

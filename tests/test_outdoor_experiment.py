@@ -9,9 +9,10 @@ import json
 import numpy as np
 import pytest
 
-from sfa_gym.experiments import OutdoorExperiment, SFASettings
-from sfa_gym.experiments.outdoor import CONDITIONS
+from sfa_gym.cli.localize import OutdoorExperiment
 from sfa_gym.geometry import in_rectangle
+from sfa_gym.protocols.outdoor import CONDITIONS
+from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.recording.runfile import load_run
 from sfa_gym.sim.worlds import load_world_spec
 
@@ -184,7 +185,7 @@ def test_short_outdoor_drive_end_to_end(tmp_path, capsys):
 
 
 def test_training_runs_interleave_frame_by_frame():
-    from sfa_gym.experiments.outdoor import interleave
+    from sfa_gym.protocols.outdoor import interleave
 
     a = np.arange(6).reshape(3, 2)
     got = interleave([a, a + 100, a + 200])

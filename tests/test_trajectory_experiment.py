@@ -14,14 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sfa_gym.experiments import (
-    SFASettings,
-    TrajectoryExperiment,
-    format_table,
-    run_trajectory_experiment,
-)
+from sfa_gym.cli.localize import TrajectoryExperiment, run_trajectory_experiment
+from sfa_gym.cli.results import format_table
 from sfa_gym.geometry import in_rectangle
 from sfa_gym.plugins import load_method_plugin
+from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.recording.runfile import load_run
 
 BASELINES = Path(__file__).resolve().parents[1] / "baselines"

@@ -130,7 +130,7 @@ def test_embedded_features_embed_the_base_models_rotation_averages():
 
 def test_navigate_with_a_walk_runs_the_graph_features_beside_sfa(tmp_path):
     # the maze at a tiny size: a 10 x 10 training grid walked without crossing the walls
-    from sfa_gym.experiments.navigation import NavigationExperiment, run_navigation_experiment
+    from sfa_gym.cli.navigate import NavigationExperiment, run_navigation_experiment
     from sfa_gym.protocols.settings import SFASettings
 
     config = NavigationExperiment(

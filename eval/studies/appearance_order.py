@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 import tyro
 
-from sfa_gym.experiments import OutdoorExperiment, run_outdoor_experiment
+from sfa_gym.cli.localize import OutdoorExperiment, run_outdoor_experiment
 from sfa_gym.files import write_json_atomic
 from sfa_gym.intervals import mean_entry
 

@@ -44,7 +44,7 @@ import numpy as np
 import tyro
 from tqdm import tqdm
 
-from sfa_gym.experiments.grid import GridExperiment
+from sfa_gym.cli.localize import GridExperiment
 from sfa_gym.features import rotation_averaged_features
 from sfa_gym.files import write_json_atomic
 from sfa_gym.protocols.grid import training_panoramas

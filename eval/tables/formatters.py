@@ -1,7 +1,7 @@
 """Markdown tables for the committed result files that no other module formats.
 
-The protocols format their own ``results.json`` (:func:`sfa_gym.experiments.report.format_table`,
-:func:`sfa_gym.experiments.navigation.format_navigation_table`); the formatters here cover the
+The protocols format their own ``results.json`` (:func:`sfa_gym.cli.results.format_table`,
+:func:`sfa_gym.cli.navigate.format_navigation_table`); the formatters here cover the
 other kinds of result file under ``published/``: the leaderboard's reference board (one record
 per track and method), the navigation studies' episode sets (rows of ``variant``, ``env_id``,
 ``world_seed``, ``first_seed`` and the scores), the descent bounds, the navigation step rates,

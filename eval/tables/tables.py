@@ -47,14 +47,14 @@ def _one(files: Sequence[dict[str, Any]], name: str) -> dict[str, Any]:
 
 
 def _localization(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
-    from sfa_gym.experiments.report import format_table
+    from sfa_gym.cli.results import format_table
 
     # the protocols' own plain-text table, kept as a block so its columns stay aligned
     return "```text\n" + format_table(_one(files, "localization")) + "\n```"
 
 
 def _navigation(files: Sequence[dict[str, Any]], options: dict[str, str]) -> str:
-    from sfa_gym.experiments.navigation import format_navigation_table
+    from sfa_gym.cli.navigate import format_navigation_table
 
     return format_navigation_table(_one(files, "navigation"))
 
@@ -87,7 +87,7 @@ GENERATORS: dict[str, Generator] = {
     "equivariance": formatters.equivariance_table,
 }
 """Formatters by the name a marker gives: ``localization`` (a localization protocol's
-``results.json``, :func:`sfa_gym.experiments.report.format_table`), ``navigation`` (the
+``results.json``, :func:`sfa_gym.cli.results.format_table`), ``navigation`` (the
 navigation protocol's ``results.json``), ``board`` and ``board-parts`` (the leaderboard's
 reference board), ``board-seconds`` and ``board-memory`` (what its tasks cost:
 :mod:`eval.tables.cost_formatters`), ``nav-controllers`` (success and SPL of navigation

@@ -24,7 +24,7 @@ def baseline_workers(
     Raises:
         ValueError: ``out`` is a file, or ``folder`` is not a folder.
     """
-    from sfa_gym.experiments.report import check_out_folder
+    from sfa_gym.cli.results import check_out_folder
     from sfa_gym.plugins import close_plugins, load_plugins
     from sfa_gym.recording.cache import default_cache_dir
 

@@ -17,7 +17,7 @@ Every protocol module (:mod:`~sfa_gym.protocols.grid`, :mod:`~sfa_gym.protocols.
   task's scores, JSON types) and ``data``, what it was scored on (the figures draw from it).
 - ``requests(config, world_seed)``: the runs it renders, by name.
 
-The command line (:mod:`sfa_gym.experiments`: output folders, figures, reports) and the
+The command line (:mod:`sfa_gym.cli.localize`: output folders, figures, reports) and the
 leaderboard (:mod:`sfa_gym.leaderboard`) both call ``score``; neither scores by itself.
 :mod:`~sfa_gym.protocols.settings` holds what several protocols share (where they render, the SFA
 network), :mod:`~sfa_gym.protocols.features` how a method is fitted on rotated views.

@@ -13,13 +13,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym.experiments.common import FIGURE_REGRESSOR
 from sfa_gym.geometry import in_rectangle
 from sfa_gym.rotation import Rotation, quarter_indices
 
-__all__ = ["grid_figures", "quarter_outputs", "trajectory_figures"]
+__all__ = ["FIGURE_REGRESSOR", "grid_figures", "quarter_outputs", "trajectory_figures"]
 
 DPI = 110
+
+FIGURE_REGRESSOR = "map"
+"""The regression whose SFA estimates the estimate and error-map figures show."""
 
 
 def quarter_outputs(
