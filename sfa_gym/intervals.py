@@ -27,11 +27,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 __all__ = [
+    "INTERVAL",
     "LEVEL",
     "MIN_SEEDS",
     "bootstrap_interval",
     "format_interval",
     "mean_entry",
+    "score_range",
+    "summarize",
     "t_interval",
     "wilson",
 ]
@@ -41,6 +44,9 @@ LEVEL = 0.95
 
 MIN_SEEDS = 3
 """The fewest values whose mean gets a t interval (see the module docstring)."""
+
+INTERVAL = "t-clipped"
+"""The interval method a leaderboard score records (:func:`summarize`)."""
 
 
 def wilson(successes: int, n: int, level: float = LEVEL) -> tuple[float, float]:
@@ -85,6 +91,29 @@ def t_interval(
     half = float(stats.t.ppf(0.5 + level / 2, x.size - 1)) * float(x.std(ddof=1))
     half /= math.sqrt(x.size)
     return max(low, mean - half), min(high, mean + half)
+
+
+def score_range(higher_is_better: bool) -> tuple[float, float]:
+    """The range of a leaderboard score: a navigation track's success rate (higher is better)
+    lies in [0, 1], a localization track's MAE (lower is better) in [0, inf)."""
+    return (0.0, 1.0) if higher_is_better else (0.0, math.inf)
+
+
+def summarize(values: Sequence[float], higher_is_better: bool) -> dict[str, Any]:
+    """A leaderboard score of per-world-seed ``values``: their mean, ``n``, standard deviation
+    and the 95 % :func:`t_interval` clipped to the :func:`score_range` (none with fewer than
+    :data:`MIN_SEEDS` seeds). The one place a score's mean and interval are computed: results
+    store it, and the table, compare, publish and the HTML board read it."""
+    x = np.asarray(values, dtype=np.float64)
+    enough = len(x) >= MIN_SEEDS
+    return {
+        "mean": float(x.mean()),
+        "ci95": list(t_interval(x, *score_range(higher_is_better))) if enough else None,
+        "interval": INTERVAL,
+        "n": int(len(x)),
+        "std": float(x.std(ddof=1)) if len(x) > 1 else None,
+        "higher_is_better": higher_is_better,
+    }
 
 
 def mean_entry(values: ArrayLike, low: float = 0.0, digits: int = 4) -> dict[str, Any]:

@@ -1,25 +1,21 @@
 """Intervals that respect the score: a leaderboard summary stays in the score's range on hostile
-inputs, has none below three seeds, prints as ``[a, b]`` or ``(n=2)``; results that record the
-older unclipped interval still verify, and an edited summary is still refused."""
+inputs, has none below three seeds, prints as ``[a, b]`` or ``(n=2)``; an edited summary, or
+results of an older schema, are refused."""
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 
 import pytest
 
-from sfa_gym.intervals import format_interval, t_interval, wilson
+from sfa_gym.intervals import format_interval, summarize, t_interval, wilson
 from sfa_gym.leaderboard.results import (
     FORMAT,
-    READ_SCHEMA_VERSIONS,
-    SCHEMA_VERSION,
     ResultError,
     check_result,
     load_results,
     reference_folder,
-    summarize,
 )
 
 T_975_4 = 2.7764451051977987
@@ -51,7 +47,7 @@ def test_the_clipped_interval_is_the_t_interval_inside_the_range():
     half = T_975_4 * std / math.sqrt(5)
     assert summarize(values, True)["ci95"] == pytest.approx([mean - half, 1.0], rel=1e-12)
     assert mean + half > 1.0
-    assert summarize(values, True, "t")["ci95"] == pytest.approx([mean - half, mean + half])
+    assert t_interval(values) == pytest.approx((mean - half, mean + half))
 
 
 @pytest.mark.parametrize("values", [[0.4], [0.2, 0.9]])
@@ -74,21 +70,18 @@ def test_the_building_blocks_refuse_what_they_cannot_bound():
         t_interval([0.5])
     with pytest.raises(ValueError, match=r"leave the range \[0.0, 1.0\]"):
         t_interval([0.5, 1.5, 0.2], 0.0, 1.0)
-    with pytest.raises(ValueError, match="'bootstrap'; expected one of"):
-        summarize([0.5, 0.6, 0.7], True, "bootstrap")
 
 
-def _result(values: dict[int, float], higher: bool, **summary: object) -> dict:
-    """A result file of ``values`` per world seed, its score summarized by ``summary``'s
-    arguments to :func:`summarize` (``interval``)."""
+def _result(values: dict[int, float], higher: bool) -> dict:
+    """A result of ``values`` per world seed, its score summarized by :func:`summarize`."""
     return {
-        "format": FORMAT,
-        "schema_version": SCHEMA_VERSION,
-        "track": {"name": "nav_open", "quick": False, "track_version": 3},
-        "method": {"label": "m"},
-        "score": summarize(list(values.values()), higher, **summary),
-        "tasks": [{"world_seed": s, "scores": {"score": v}} for s, v in values.items()],
-        "provenance": {"git_commit": None},
+        "track": "nav_open",
+        "track_version": 3,
+        "quick": False,
+        "method": "m",
+        "score": summarize(list(values.values()), higher),
+        "per_world_seed": {str(s): v for s, v in values.items()},
+        "isolation": ["bwrap"],
     }
 
 
@@ -96,63 +89,52 @@ SPREAD = {100: 0.0, 101: 0.9, 102: 1.0}
 """Success rates of three seeds whose t interval leaves [0, 1] at both ends."""
 
 
-def test_a_result_of_the_old_unclipped_interval_still_verifies_and_shows_today_s():
-    old = _result(SPREAD, True, interval="t") | {"schema_version": 1}
-    lo, hi = old["score"]["ci95"]
-    assert lo < 0.0 and hi > 1.0  # what an older file records
-    shown = check_result(copy.deepcopy(old), "old")["score"]
-    assert shown["interval"] == "t-clipped" and shown["mean"] == old["score"]["mean"]
-    assert shown["ci95"] == [0.0, 1.0]
-    # and an old file of two seeds, whose interval the new method would not give
-    two = _result({100: 0.2, 101: 0.9}, True, interval="t")
-    assert two["score"]["ci95"] is not None
-    assert check_result(copy.deepcopy(two), "two")["score"]["ci95"] is None
-
-
-@pytest.mark.parametrize("interval", ["t", "t-clipped"])
-def test_a_tampered_summary_is_still_refused(interval):
-    result = _result(SPREAD, True, interval=interval)
-    edited = copy.deepcopy(result)
+def test_a_tampered_summary_is_refused():
+    edited = _result(SPREAD, True)
     edited["score"]["mean"] += 0.05
     with pytest.raises(ResultError, match="score.mean is"):
         check_result(edited, "edited")
-    # a result that claims the other method than its numbers follow
-    relabelled = copy.deepcopy(result)
-    relabelled["score"]["interval"] = "t-clipped" if interval == "t" else "t"
+    # a result that records the unclipped interval of its seeds (schema 1's)
+    unclipped = _result(SPREAD, True)
+    unclipped["score"]["ci95"] = list(t_interval(list(SPREAD.values())))
     with pytest.raises(ResultError, match="score.ci95 is"):
-        check_result(relabelled, "relabelled")
+        check_result(unclipped, "unclipped")
 
 
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda r: r["score"].update(interval="bootstrap"), "'score.interval' is 'bootstrap'"),
+        (
+            lambda r: r["score"].update(interval="t"),
+            "'score.interval' is 't'; expected 't-clipped'",
+        ),
         (lambda r: r["score"].pop("interval"), "lacks 'score.interval'"),
-        (lambda r: r["tasks"][0]["scores"].update(score=1.5), "leaves the score's range"),
+        (lambda r: r["per_world_seed"].update({"100": 1.5}), "leaves the score's range"),
     ],
 )
-def test_an_unknown_interval_or_a_score_out_of_range_is_refused(edit, message):
+def test_another_interval_or_a_score_out_of_range_is_refused(edit, message):
     result = _result(SPREAD, True)
     edit(result)
     with pytest.raises(ResultError, match=message):
         check_result(result, "bad")
 
 
-def test_old_and_new_result_files_load_and_a_newer_schema_is_refused(tmp_path):
-    assert READ_SCHEMA_VERSIONS == (1, 2) and SCHEMA_VERSION == 2
-    for label, version, interval in (("old", 1, "t"), ("new", 2, "t-clipped")):
-        result = _result(SPREAD, True, interval=interval)
-        result.update(schema_version=version, method={"label": label})
-        path = tmp_path / "nav_open" / f"{label}.json"
-        path.parent.mkdir(exist_ok=True)
-        path.write_text(json.dumps(result))
-    loaded = {r["method"]["label"]: r["score"] for r in load_results(tmp_path)}
-    assert loaded["old"] == loaded["new"]  # shown alike, by today's method
-    (tmp_path / "nav_open" / "new.json").write_text(
-        json.dumps({**_result(SPREAD, True), "schema_version": 3})
-    )
-    with pytest.raises(ResultError, match=r"schema_version 3; this sfa_gym reads \[1, 2\]"):
+@pytest.mark.parametrize(
+    ("data", "version"),
+    [
+        ({"format": "sfa-gym-leaderboard-result", "schema_version": 2}, "2"),
+        ({"format": "sfa-gym-leaderboard-result", "schema_version": 1}, "1"),
+        ({"description": "", "results": []}, r"2 \(a gathered file without a format\)"),
+        ({"format": FORMAT, "schema_version": 4, "results": []}, "4"),
+    ],
+)
+def test_results_of_another_schema_are_refused_naming_the_converter(tmp_path, data, version):
+    (tmp_path / "old.json").write_text(json.dumps(data))
+    expected = rf"old.json: leaderboard results of schema_version {version}; this sfa_gym reads "
+    with pytest.raises(ResultError, match=expected + r"schema_version 3: convert it with scripts/"):
         load_results(tmp_path)
+    (tmp_path / "old.json").write_text(json.dumps({**data, "format": "sfa-gym-leaderboard-task"}))
+    assert load_results(tmp_path) == []  # a task file: no results
 
 
 def test_the_published_results_verify_unchanged_and_show_in_range():

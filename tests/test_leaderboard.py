@@ -21,7 +21,7 @@ from sfa_gym.capabilities import Capabilities
 from sfa_gym.leaderboard.results import SCHEMA_VERSION
 from sfa_gym.leaderboard.tracks import TrackError, list_tracks, load_track, track_from_dict
 from sfa_gym.navigation.controllers import GradientSettings
-from sfa_gym.plugins import PluginError, load_method
+from sfa_gym.plugins import PluginError, file_sha256, load_method
 from sfa_gym.recording.cache import RunCache, RunRequest
 from sfa_gym.recording.drivers import GridPositions
 from sfa_gym.sim.env import OmniRoverEnv
@@ -500,13 +500,16 @@ def test_cli_run_and_table_write_results_with_provenance(tmp_path, capsys):
         ["leaderboard", "run", "--method", str(BAND_MEANS), "--track", "tiny", "--quick", *common]
     )
     assert status == 0
-    result = json.loads((results / "tiny" / "band_means.quick.json").read_text())
-    assert result["schema_version"] == SCHEMA_VERSION and result["track"]["track_version"] == 1
-    assert [t["world_seed"] for t in result["tasks"]] == [100]  # quick: the first world seed
+    stored = json.loads((results / "tiny" / "band_means.quick.json").read_text())
+    assert stored["schema_version"] == SCHEMA_VERSION
+    (result,) = stored["results"]
+    assert result["track_version"] == 1 and result["backend"] == "local"
+    assert list(result["per_world_seed"]) == ["100"]  # quick: the first world seed
     assert result["score"]["n"] == 1 and result["score"]["ci95"] is None
-    assert result["method"]["args"] == {} and result["method"]["all_args"]["n_bands"] == 8
-    assert result["provenance"]["sfa_gym_version"] and result["provenance"]["backend"] == "local"
     assert 0 < result["score"]["mean"] < 50  # MAE in % of the range: far better than chance
+    (task,) = [json.loads(p.read_text()) for p in (results / "tasks").rglob("*.json")]
+    assert task["identity"]["method"]["args"]["n_bands"] == 8  # all of them, defaults too
+    assert task["provenance"]["sfa_gym_version"] and result["versions"]
 
     status = main(
         [
@@ -522,8 +525,8 @@ def test_cli_run_and_table_write_results_with_provenance(tmp_path, capsys):
         ]
     )
     assert status == 0
-    full = json.loads((results / "tiny" / "band_means[n_bands=2].json").read_text())
-    assert full["method"]["path"] == str(BAND_MEANS)
+    (full,) = json.loads((results / "tiny" / "band_means[n_bands=2].json").read_text())["results"]
+    assert full["method_sha256"] == file_sha256(BAND_MEANS)
     # two seeds: too few for an interval (sfa_gym.intervals.MIN_SEEDS)
     assert full["score"]["n"] == 2 and full["score"]["interval"] == "t-clipped"
     assert full["score"]["ci95"] is None and full["score"]["std"] is not None

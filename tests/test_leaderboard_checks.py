@@ -16,7 +16,6 @@ from sfa_gym.leaderboard.checks import FINGERPRINT_MARK, VERSIONS_MARK, check_bo
 from sfa_gym.leaderboard.results import (
     FORMAT,
     SCHEMA_VERSION,
-    gathered_entry,
     load_results,
     make_result,
     summarize,
@@ -59,31 +58,31 @@ def test_the_fingerprint_follows_the_poses_to_a_micrometre():
 
 
 def _nav_result(label: str, prints: dict[int, str], versions: dict | None) -> dict:
-    """A navigation result file (the fields the table reads), with fingerprints per seed."""
+    """A navigation result (the fields the table reads), with fingerprints per seed."""
     return {
-        "format": FORMAT,
-        "schema_version": SCHEMA_VERSION,
-        "track": {
-            "name": "nav_open",
-            "quick": True,
-            "track_version": NAV_OPEN.track_version,
-            "size_params": json.loads(json.dumps(NAV_OPEN.sized(True)[1])),
-        },
-        "method": {"label": label, "sha256": None},
+        "track": "nav_open",
+        "track_version": NAV_OPEN.track_version,
+        "quick": True,
+        "size_params": json.loads(json.dumps(NAV_OPEN.sized(True)[1])),
+        "method": label,
         "score": summarize([0.5] * len(prints), higher_is_better=True),
-        "tasks": [
-            {"world_seed": s, "scores": {"score": 0.5, "fingerprint": f}, "seconds": 1.0}
-            for s, f in prints.items()
-        ],
-        "provenance": {"git_commit": None, "backend": "local", "created": None}
-        | ({} if versions is None else {"versions": versions}),
+        "per_world_seed": {str(s): 0.5 for s in prints},
+        "fingerprints": {str(s): f for s, f in prints.items()},
+        "isolation": ["bwrap"],
+        "versions": versions,
     }
 
 
+def _file(*results: dict, **fields: object) -> str:
+    return json.dumps(
+        {"format": FORMAT, "schema_version": SCHEMA_VERSION, **fields, "results": results}
+    )
+
+
 def _write(folder: Path, result: dict) -> None:
-    path = folder / "nav_open" / f"{result['method']['label']}.quick.json"
+    path = folder / "nav_open" / f"{result['method']}.quick.json"
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(result))
+    path.write_text(_file(result))
 
 
 def test_results_off_the_lock_or_off_the_reference_episodes_are_marked(tmp_path):
@@ -92,16 +91,15 @@ def test_results_off_the_lock_or_off_the_reference_episodes_are_marked(tmp_path)
     reference = tmp_path / "reference"
     reference.mkdir()
     gathered = [
-        gathered_entry(_nav_result(label, {100: "aaaa", 101: "bbbb"}, lock))
+        _nav_result(label, {100: "aaaa", 101: "bbbb"}, lock)
+        | {"cpu_numerics": {"simd": ["X86_V3", "X86_V4"], "blas": []}}
         for label in ("band_means", "pca", "sfa")
     ]
-    for entry in gathered:
-        entry["cpu_numerics"] = {"simd": ["X86_V3", "X86_V4"], "blas": []}
-    (reference / "quick.json").write_text(json.dumps({"description": "", "results": gathered}))
+    (reference / "quick.json").write_text(_file(*gathered, description=""))
     yours = tmp_path / "yours"
     _write(yours, _nav_result("band_means", {100: "aaaa", 101: "bbbb"}, lock))  # the same
     pca = _nav_result("pca", {100: "aaaa", 101: "cccc"}, off_lock)  # both differ
-    pca["provenance"]["cpu_numerics"] = {"simd": ["X86_V3"], "blas": []}
+    pca["cpu_numerics"] = {"simd": ["X86_V3"], "blas": []}
     _write(yours, pca)
     _write(yours, _nav_result("sfa", {100: "aaaa", 101: "bbbb"}, None))  # written before
     board = load_board(yours, reference)
@@ -124,40 +122,38 @@ def test_results_off_the_lock_or_off_the_reference_episodes_are_marked(tmp_path)
     assert "a CPU that rounds differently: {'simd': ['X86_V3']" in warnings
     # another track version is another experiment: its episodes are not compared
     other = _nav_result("band_means", {100: "zzzz"}, lock)
-    other["track"]["track_version"] = 3
+    other["track_version"] = 3
     _write(yours, other)
     assert check_board(load_board(yours, reference), lock).fingerprints.keys() == {
         (column, ("pca", "yours"))
     }
 
 
-def test_a_gathered_entry_keeps_versions_and_fingerprints(tmp_path):
-    result = _nav_result("band_means", {100: "aaaa", 101: "bbbb"}, {"numpy": "2.0.0"})
-    entry = gathered_entry(result)
-    assert entry["fingerprints"] == {"100": "aaaa", "101": "bbbb"}
-    (tmp_path / "quick.json").write_text(json.dumps({"description": "", "results": [entry]}))
-    (read,) = load_results(tmp_path)
-    assert fingerprints(read) == {100: "aaaa", 101: "bbbb"}
-    assert read["provenance"]["versions"] == {"numpy": "2.0.0"}
-    assert [t["scores"]["score"] for t in read["tasks"]] == [0.5, 0.5]
-
-
-def test_a_result_records_the_locked_packages_versions():
+def test_a_result_records_versions_fingerprints_and_spl(tmp_path):
     track = load_track(ROOT / "tracks" / "nav_open.json")
+    scores = [
+        {"score": 0.5, "fingerprint": f, "spl": spl} for f, spl in (("aaaa", 0.5), ("bbbb", 0.25))
+    ]
     result = make_result(
         track=track,
         quick=True,
         method={"label": "band_means"},
-        tasks=[{"world_seed": 100, "scores": {"score": 0.5, "fingerprint": "aaaa"}}],
+        tasks=[
+            {"world_seed": 100 + i, "scores": s, "isolation": "bwrap"} for i, s in enumerate(scores)
+        ],
         higher_is_better=True,
         backend="local",
-        seconds=1.0,
     )
-    versions = result["provenance"]["versions"]
+    versions = result["versions"]
     assert versions == installed_versions() and set(versions) == set(read_lock())
-    numerics = result["provenance"]["cpu_numerics"]
+    numerics = result["cpu_numerics"]
     assert set(numerics) == {"simd", "blas"} and numerics["blas"]  # numpy's OpenBLAS at least
-    assert gathered_entry(result)["cpu_numerics"] == numerics
+    assert result["fingerprints"] == {"100": "aaaa", "101": "bbbb"}
+    assert result["spl"] == {"mean": 0.375, "per_world_seed": {"100": 0.5, "101": 0.25}}
+    (tmp_path / "quick.json").write_text(_file(result, description=""))
+    (read,) = load_results(tmp_path)
+    assert fingerprints(read) == {100: "aaaa", 101: "bbbb"} and read["versions"] == versions
+    assert read["per_world_seed"] == {"100": 0.5, "101": 0.5} and read["isolation"] == ["bwrap"]
     json.dumps(result, allow_nan=False)
 
 
@@ -171,7 +167,7 @@ def test_the_table_command_names_results_off_the_lock_on_stderr(tmp_path, capsys
     assert f"| 0.50 (n=1) {VERSIONS_MARK} |" in row
     assert f"mujoco 3.2.0 (lock {lock['mujoco']})" in err
     # on the lock: no mark, no line about it
-    _write(tmp_path, copy.deepcopy(mine) | {"provenance": {"versions": lock, "git_commit": None}})
+    _write(tmp_path, copy.deepcopy(mine) | {"versions": lock})
     assert main(["leaderboard", "table", "--markdown", "--results", str(tmp_path)]) == 0
     out, err = capsys.readouterr()
     row = next(line for line in out.splitlines() if line.startswith("| my_method | yours |"))

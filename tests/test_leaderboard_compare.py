@@ -6,23 +6,23 @@ from __future__ import annotations
 import json
 
 import pytest
-from test_leaderboard_table import _result
+from test_leaderboard_table import _file, _result
 
 from sfa_gym.cli.main import main
 from sfa_gym.leaderboard.compare import compare_results, read_results
 
 
-def _write(folder, track, label, seeds, parts=None, **provenance):
-    """A result file of ``label`` on ``track`` at the quick size under ``folder``;
+def _write(folder, track, label, seeds, parts=None, **fields):
+    """A sweep's result of ``label`` on ``track`` at the quick size under ``folder``;
     ``parts``: per world seed, the score's parts."""
-    result = _result(track, label, seeds)
+    result = _result(track, label, seeds) | fields
     if parts is not None:
-        for task in result["tasks"]:
-            task["scores"]["parts"] = parts[task["world_seed"]]
-    result["provenance"] |= provenance
+        result["parts_per_world_seed"] = {str(s): p for s, p in parts.items()}
+        names = parts[next(iter(parts))]
+        result["parts"] = {n: sum(p[n] for p in parts.values()) / len(parts) for n in names}
     path = folder / track / f"{label}.quick.json"
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(result))
+    path.write_text(_file(result))
     return path
 
 
@@ -65,10 +65,15 @@ def test_parts_and_missing_results_are_compared_too(tmp_path, capsys):
     rows = {r.track: r for r in compare_results(read_results(reference), read_results(run))}
     assert rows["outdoor_paper"].status == "differs"
     assert rows["outdoor_paper"].largest_difference == pytest.approx(0.5)  # seed by seed
-    # a gathered file keeps only the parts' means: those are compared, and they are equal
+    # a result that records only the parts' means (published before schema 3): those are
+    # compared, and they are equal
     _publish(run, tmp_path / "run.json")
-    gathered = compare_results(read_results(reference), read_results(tmp_path / "run.json"))
-    assert next(r for r in gathered if r.track == "outdoor_paper").status == "equal"
+    gathered = json.loads((tmp_path / "run.json").read_text())
+    for entry in gathered["results"]:
+        entry.pop("parts_per_world_seed", None)
+    (tmp_path / "run.json").write_text(json.dumps(gathered))
+    means = compare_results(read_results(reference), read_results(tmp_path / "run.json"))
+    assert next(r for r in means if r.track == "outdoor_paper").status == "equal"
     assert rows["few_labels"].status == "reference only"
     assert rows["train_test"].status == "run only"
 

@@ -190,7 +190,7 @@ def test_bad_env_kwargs_are_named(env_kwargs, error, message):
 
 
 def test_tiny_outdoor_tracks_score_band_means_and_share_the_drive(tmp_path):
-    from sfa_gym.leaderboard.results import FORMAT, SCHEMA_VERSION, load_results
+    from sfa_gym.leaderboard.results import load_results
     from sfa_gym.leaderboard.sweep import run_sweep
     from sfa_gym.leaderboard.table import write_table
     from sfa_gym.leaderboard.tracks import load_track
@@ -209,16 +209,17 @@ def test_tiny_outdoor_tracks_score_band_means_and_share_the_drive(tmp_path):
     )
     # the drive once for both tracks, plus the "later" test run
     assert len(RunCache(cache).renders()) == 2
-    results = {r["track"]["name"]: r for r in load_results(tmp_path / "results")}
+    results = {r["track"]: r for r in load_results(tmp_path / "results")}
     assert [Path(p).parent.name for p in written] == ["outdoor_tiny", "outdoor_tiny_later"]
-    paper, later = results["outdoor_tiny"], results["outdoor_tiny_later"]
-    for result in (paper, later):
-        assert result["format"] == FORMAT and result["schema_version"] == SCHEMA_VERSION
-        assert result["track"]["evaluation"] == "outdoor"
+    for result in results.values():
         assert result["score"]["n"] == 1 and result["score"]["higher_is_better"] is False
-        (task,) = result["tasks"]
-        assert task["world_seed"] == 300
-        scores = task["scores"]
+        assert list(result["per_world_seed"]) == ["300"]
+    paper, later = (
+        json.loads(next((tmp_path / "results/tasks" / name).rglob("300.json")).read_text())
+        for name in ("outdoor_tiny", "outdoor_tiny_later")
+    )
+    for task in (paper, later):
+        scores = task["output"]["scores"]
         assert math.isfinite(scores["score"]) and 0 < scores["score"] < 100
         assert scores["frames"]["train"] == 133 and scores["frames"]["test"] == 125
         assert scores["frames"]["unvisited"] > 0  # the test path crosses the south-west
@@ -227,12 +228,15 @@ def test_tiny_outdoor_tracks_score_band_means_and_share_the_drive(tmp_path):
         assert scores["parts"]["unvisited"] == pytest.approx(
             sum(after["unvisited"]["mae_percent"]) / 2
         )
-    assert paper["tasks"][0]["scores"]["score"] == paper["tasks"][0]["scores"]["parts"]["after"]
-    later_scores = later["tasks"][0]["scores"]
+    paper_scores, later_scores = paper["output"]["scores"], later["output"]["scores"]
+    assert paper_scores["score"] == paper_scores["parts"]["after"]
     assert later_scores["score"] == later_scores["parts"]["later"]
     # the same method on the same drive: the reference "after" score is the paper track's
-    assert later_scores["parts"]["after"] == paper["tasks"][0]["scores"]["parts"]["after"]
-    assert later_scores["renders"]["drive"] == paper["tasks"][0]["scores"]["renders"]["drive"]
+    assert later_scores["parts"]["after"] == paper_scores["parts"]["after"]
+    assert later_scores["renders"]["drive"] == paper_scores["renders"]["drive"]
+    # the result holds the parts, per world seed and their means
+    assert results["outdoor_tiny"]["parts_per_world_seed"] == {"300": paper_scores["parts"]}
+    assert results["outdoor_tiny_later"]["parts"] == later_scores["parts"]
 
     # the paper track's task was not run: its scores are a part of the later track's task,
     # and exactly what running it alone gives (same cache: nothing is rendered again)

@@ -57,6 +57,11 @@ def calls(monkeypatch):
     return ran
 
 
+def _result(path: Path) -> dict:
+    (result,) = json.loads(path.read_text())["results"]
+    return result
+
+
 def _files(results: Path) -> dict[str, bytes]:
     return {str(p.relative_to(results)): p.read_bytes() for p in sorted(results.rglob("*.json"))}
 
@@ -73,7 +78,7 @@ def test_a_rerun_runs_no_finished_task_and_a_stale_one_again(tmp_path, calls, ca
     record = json.loads(task_file.read_text())
     assert record["identity"]["track"]["track_version"] == 1
     assert record["identity"]["method"]["args"]["n_bands"] == 8  # all of them, defaults too
-    assert record["output"]["scores"] == json.loads(pair.read_text())["tasks"][0]["scores"]
+    assert record["output"]["scores"]["score"] == _result(pair)["per_world_seed"]["100"]
     first = _files(results)
     assert len(first) == 3  # two tasks and the pair
 
@@ -88,8 +93,8 @@ def test_a_rerun_runs_no_finished_task_and_a_stale_one_again(tmp_path, calls, ca
     task_file.write_text(task_file.read_text()[:50])  # a damaged file: computed again
     run_sweep([track], [(method, {})], results, **common)
     assert [t.world_seed for t in calls] == [100, 100]
-    scores = [t["scores"] for t in json.loads(first["tiny/means.json"])["tasks"]]
-    assert [t["scores"] for t in json.loads(pair.read_text())["tasks"]] == scores  # same seed
+    scores = json.loads(first["tiny/means.json"])["results"][0]["per_world_seed"]
+    assert _result(pair)["per_world_seed"] == scores  # same seed
 
     calls.clear()
     capsys.readouterr()
@@ -99,8 +104,8 @@ def test_a_rerun_runs_no_finished_task_and_a_stale_one_again(tmp_path, calls, ca
     assert "world seed 101: computed again (stale: its method.sha256 differs)" in (
         capsys.readouterr().err
     )
-    new_sha = json.loads(pair.read_text())["method"]["sha256"]
-    assert new_sha != json.loads(first["tiny/means.json"])["method"]["sha256"]
+    new_sha = _result(pair)["method_sha256"]
+    assert new_sha != json.loads(first["tiny/means.json"])["results"][0]["method_sha256"]
     assert json.loads(task_file.read_text())["identity"]["method"]["sha256"] == new_sha
 
     calls.clear()
@@ -149,8 +154,7 @@ def test_a_failing_method_loses_no_other_result_and_fails_the_command(tmp_path, 
     assert "tiny / raises / world seed 100: RuntimeError: boom in fit" in err
     assert "tiny / raises / world seed 101: RuntimeError: boom in fit" in err
     assert len(calls) == 4  # the failures did not stop band_means, which came after them
-    done = json.loads((results / "tiny" / "band_means.json").read_text())
-    assert [t["world_seed"] for t in done["tasks"]] == [100, 101]
+    assert list(_result(results / "tiny" / "band_means.json")["per_world_seed"]) == ["100", "101"]
     assert not (results / "tiny" / "raises.json").exists()
     failed = json.loads((results / "tasks" / "tiny" / "raises" / "100.json").read_text())
     assert failed["output"] is None
@@ -233,8 +237,7 @@ def test_sigterm_keeps_the_finished_tasks_and_the_same_command_resumes(tmp_path,
 
     assert main(argv) == 0  # the third method made: world seed 101 only
     assert counter.read_text().splitlines() == ["made"] * 3
-    result = json.loads((results / "tiny" / "stops.json").read_text())
-    assert [t["world_seed"] for t in result["tasks"]] == [100, 101]
+    assert list(_result(results / "tiny" / "stops.json")["per_world_seed"]) == ["100", "101"]
 
 
 CRASHES = """

@@ -30,30 +30,33 @@ QUICK_SIZE = json.loads(json.dumps(load_track(ROOT / "tracks" / "few_labels.json
 """The parameters of few_labels at its quick size, as a result records them."""
 
 
-def _result(label: str, seeds: dict[int, float] = GOOD, **track: object) -> dict:
-    """A correct result file of few_labels at the quick size; ``track`` overrides its fields."""
+def _result(label: str, seeds: dict[int, float] = GOOD, **fields: object) -> dict:
+    """A correct result of few_labels at the quick size; ``fields`` override its fields."""
     return {
-        "format": FORMAT,
-        "schema_version": SCHEMA_VERSION,
-        "track": {
-            "name": "few_labels",
-            "quick": True,
-            "track_version": 1,
-            "size_params": QUICK_SIZE,
-            **track,
-        },
-        "method": {"label": label},
+        "track": "few_labels",
+        "track_version": 1,
+        "quick": True,
+        "size_params": QUICK_SIZE,
+        "method": label,
         "score": summarize(list(seeds.values()), higher_is_better=False),
-        "tasks": [{"world_seed": s, "scores": {"score": v}} for s, v in seeds.items()],
-        "provenance": {"git_commit": None},
+        "per_world_seed": {str(s): v for s, v in seeds.items()},
+        "isolation": ["bwrap"],
+        **fields,
     }
 
 
 def _write(results: Path, result: dict, name: str | None = None, folder: str = "few_labels"):
-    path = results / folder / (name or f"{result['method']['label']}.quick.json")
+    path = results / folder / (name or f"{result['method']}.quick.json")
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(result))
+    path.write_text(
+        json.dumps({"format": FORMAT, "schema_version": SCHEMA_VERSION, "results": [result]})
+    )
     return path
+
+
+def _edit(data: dict, **fields: object) -> str:
+    """The text of results file ``data`` with its result's ``fields`` replaced."""
+    return json.dumps({**data, "results": [{**data["results"][0], **fields}]})
 
 
 def _table(results: Path, capsys) -> tuple[int, str, str]:
@@ -83,7 +86,7 @@ def test_a_correct_result_is_shown_unchanged(tmp_path, capsys):
 
 
 def test_a_result_that_records_no_commit_is_shown(tmp_path, capsys):
-    _write(tmp_path, {**_result("bare"), "provenance": {}})
+    _write(tmp_path, {**_result("bare"), "git_commit": None})
     status, out, err = _table(tmp_path, capsys)
     assert status == 0 and "skipped" not in err
     assert _row(out, "bare") == "| bare | yours | 3.50 (n=2) |"
@@ -109,7 +112,7 @@ def test_an_edited_mean_is_refused_with_both_numbers(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("folder", "name", "track", "expected"),
     [
-        ("few_labels", "moved.quick.json", {"name": "train_test"}, "track 'train_test'"),
+        ("few_labels", "moved.quick.json", {"track": "train_test"}, "track 'train_test'"),
         ("few_labels", "moved.json", {}, "at the quick size"),
         ("few_labels", "other_label.quick.json", {}, "method 'moved'"),
     ],
@@ -129,37 +132,29 @@ def test_a_file_whose_place_disagrees_with_its_content_is_refused(
     ("damage", "expected"),
     [
         (lambda text, data: text[: len(text) // 2], "cannot be read as JSON"),
-        (lambda text, data: json.dumps({k: v for k, v in data.items() if k != "score"}), "'score'"),
-        (lambda text, data: json.dumps({**data, "tasks": []}), "'tasks' is empty"),
+        (lambda text, r: _edit(r, score=None), "'score' is None; expected object"),
+        (lambda text, r: _edit(r, per_world_seed={}), "'per_world_seed' is empty"),
+        (lambda text, r: _edit(r, track_version="1"), "'track_version' is '1'; expected int"),
         (
-            lambda text, data: json.dumps(
-                {**data, "track": {**data["track"], "track_version": "1"}}
-            ),
-            "'track.track_version' is '1'; expected int",
+            lambda text, r: text.replace('"100": 3.25', '"100": "3.25"'),
+            "[100] is '3.25'; expected a number",
+        ),
+        (lambda text, r: text.replace('"quick": true', '"quick": 1'), "'quick' is 1"),
+        (lambda text, r: json.dumps([r]), "is not a results file"),
+        (
+            lambda text, r: text.replace('"100": 3.25', '"100": NaN'),
+            "[100] is nan; expected a number",
         ),
         (
-            lambda text, data: text.replace('"score": 3.25', '"score": "3.25"'),
-            "task 0: 'scores.score' is '3.25'; expected number",
+            lambda text, r: _edit(r, parts_per_world_seed={"101": [1]}),
+            "[101] is [1]; expected {part: number}",
         ),
-        (lambda text, data: text.replace('"quick": true', '"quick": 1'), "'track.quick' is 1"),
-        (lambda text, data: json.dumps([data]), "neither a result file"),
-        (
-            lambda text, data: text.replace('"score": 3.25', '"score": NaN'),
-            "task 0: 'scores.score' is nan; expected number",
-        ),
-        (
-            lambda text, data: text.replace('{"score": 3.75}', '{"score": 3.75, "parts": [1]}'),
-            "task 1: 'parts' is [1]; expected {part: number}",
-        ),
-        (
-            lambda text, data: json.dumps({**data, "provenance": {"versions": "numpy 2"}}),
-            "'provenance.versions' is 'numpy 2'",
-        ),
+        (lambda text, r: _edit(r, versions="numpy 2"), "'versions' is 'numpy 2'"),
     ],
     ids=[
         "truncated",
         "no score",
-        "no tasks",
+        "no seeds",
         "version text",
         "score text",
         "quick int",
@@ -194,7 +189,7 @@ def test_a_quick_result_of_another_quick_size_gets_a_column_of_its_own(tmp_path,
     _write(tmp_path, _result("good"))
     _write(tmp_path, _result("smaller", size_params={**QUICK_SIZE, "grid": 8}))
     unknown = _result("unknown")
-    del unknown["track"]["size_params"]  # written before results recorded their size
+    del unknown["size_params"]  # written before results recorded their size
     _write(tmp_path, unknown)
     status, out, err = _table(tmp_path, capsys)
     assert status == 0
@@ -237,10 +232,11 @@ def test_a_bad_gathered_entry_is_skipped_alone(tmp_path):
     entries = json.loads((reference_folder() / "quick.json").read_text())["results"][:3]
     entries[1]["score"]["mean"] += 1.0
     entries[2]["per_world_seed"] = {"first": 1.0}
-    (tmp_path / "quick.json").write_text(json.dumps({"description": "", "results": entries}))
+    header = {"format": FORMAT, "schema_version": SCHEMA_VERSION, "description": ""}
+    (tmp_path / "quick.json").write_text(json.dumps(header | {"results": entries}))
     skipped: list[str] = []
     (kept,) = load_results(tmp_path, REFERENCE, skipped)
-    assert kept["method"]["label"] == entries[0]["method"]
+    assert kept["method"] == entries[0]["method"]
     assert [line.split(":")[0] for line in skipped] == [
         f"{tmp_path / 'quick.json'}, entry 1",
         f"{tmp_path / 'quick.json'}, entry 2",
@@ -273,13 +269,8 @@ def test_publish_refuses_a_folder_with_an_edited_result(tmp_path, capsys):
 
 @pytest.mark.parametrize("isolation", ["process", "in-process"])
 def test_publish_refuses_results_whose_plug_ins_ran_unconfined(tmp_path, capsys, isolation):
-    confined = _result("confined")
-    for task in confined["tasks"]:
-        task["isolation"] = "bwrap"
-    _write(tmp_path / "results", confined)
-    loose = _result("loose")
-    loose["tasks"][1]["isolation"] = isolation
-    path = _write(tmp_path / "results", loose)
+    _write(tmp_path / "results", _result("confined"))
+    path = _write(tmp_path / "results", _result("loose", isolation=["bwrap", isolation]))
     out = tmp_path / "quick.json"
     args = ["leaderboard", "publish", "--results", str(tmp_path / "results"), "--out", str(out)]
     assert main(args) == 2 and not out.exists()
@@ -301,16 +292,14 @@ def test_a_task_records_how_its_plug_ins_ran(monkeypatch):
 
 
 def test_a_result_edited_consistently_after_it_was_written_is_refused(tmp_path, capsys):
-    from sfa_gym.leaderboard.results import write_result
+    from sfa_gym.leaderboard.results import content_sha256
 
-    honest = tmp_path / "few_labels" / "honest.quick.json"
-    write_result(honest, _result("honest"))
-    stored = json.loads(honest.read_text())
-    assert len(stored["content_sha256"]) == 64
+    stored = _result("honest")
+    _write(tmp_path, stored | {"content_sha256": content_sha256(stored)})
     # a forger who rewrites a seed's score and the summary to match: the summary checks pass,
     # the content hash does not
-    forged = {**stored, "method": {"label": "forged"}}
-    forged["tasks"] = [{**t, "scores": {"score": 0.5}} for t in stored["tasks"]]
+    forged = {**stored, "method": "forged", "content_sha256": content_sha256(stored)}
+    forged["per_world_seed"] = {"100": 0.5, "101": 0.5}
     forged["score"] = summarize([0.5, 0.5], higher_is_better=False)
     path = _write(tmp_path, forged)
     status, out, err = _table(tmp_path, capsys)

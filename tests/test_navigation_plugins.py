@@ -127,11 +127,12 @@ def test_the_leaderboard_scores_a_method_with_a_controller_plugin(tmp_path, caps
         [nav], [(method, {})], results, controller=(RUN_AND_TUMBLE, {"patience": 3}), **common
     )
     assert path.name == "mean_colour+run_and_tumble[patience=3].json"
-    result = json.loads(path.read_text())
-    controller = result["method"]["controller"]
-    assert controller["name"] == "run_and_tumble" and controller["all_args"]["patience"] == 3
+    (result,) = json.loads(path.read_text())["results"]
+    (task,) = [json.loads(p.read_text()) for p in (results / "tasks").rglob("*.json")]
+    controller = task["identity"]["controller"]
+    assert controller["name"] == "run_and_tumble" and controller["args"]["patience"] == 3
     assert len(controller["sha256"]) == 64
-    assert result["tasks"][0]["scores"]["episodes"] == 2
+    assert task["output"]["scores"]["episodes"] == 2
     assert 0.0 <= result["score"]["mean"] <= 1.0
     grid = load_track(_write_track(tmp_path / "tracks", TINY))
     with pytest.raises(ValueError, match=r"navigation tracks only; \['tiny'\]"):

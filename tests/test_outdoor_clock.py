@@ -172,8 +172,9 @@ def test_a_winter_track_scores_each_later_offset(tmp_path):
     track = load_track(tmp_path / "outdoor_winter.json")
     band_means = ROOT / "baselines" / "band_means.py"
     run_sweep([track], [(band_means, {})], tmp_path / "results", cache_dir=tmp_path / "cache")
-    (result,) = load_results(tmp_path / "results")
-    scores = result["tasks"][0]["scores"]
+    (task,) = (tmp_path / "results" / "tasks").rglob("*.json")
+    scores = json.loads(task.read_text())["output"]["scores"]
+    assert load_results(tmp_path / "results")[0]["parts"] == scores["parts"]
     assert list(scores["renders"]) == ["drive", "later+2h", "later+6h"]
     parts = scores["parts"]
     assert scores["score"] == pytest.approx((parts["later+2h"] + parts["later+6h"]) / 2)

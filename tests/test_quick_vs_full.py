@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from eval.studies.quick_vs_full import Args, compare, main
-from sfa_gym.leaderboard.results import make_result, result_path, write_result
+from sfa_gym.leaderboard.results import make_result, result_path, write_results
 from sfa_gym.leaderboard.tracks import load_track
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -24,13 +24,12 @@ def _write(folder, track_name, method, scores, quick):
     result = make_result(
         track=track,
         quick=quick,
-        method={"name": method, "label": method, "path": None, "sha256": None, "args": {}},
+        method={"label": method},
         tasks=tasks,
         higher_is_better=track.kind == "navigation",
         backend="local",
-        seconds=1.0,
     )
-    write_result(result_path(folder, track_name, method, quick), result)
+    write_results(result_path(folder, track_name, method, quick), [result])
 
 
 def test_same_order_is_one_and_the_reverse_minus_one():

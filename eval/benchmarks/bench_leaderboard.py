@@ -105,7 +105,7 @@ def quick_board(tracks: list[Any], methods: list[str], results: Path, cache: Run
         )
         seconds = time.perf_counter() - started
         renders, render_s = _render_seconds(cache, before)
-        result = json.loads(path.read_text())
+        (result,) = json.loads(path.read_text())["results"]
         rows.append(
             {
                 "track": track.name,
@@ -113,9 +113,9 @@ def quick_board(tracks: list[Any], methods: list[str], results: Path, cache: Run
                 "seconds": round(seconds, 2),
                 "renders": renders,
                 "render_seconds": render_s,
-                "tasks": len(result["tasks"]),
+                "tasks": len(result["per_world_seed"]),
                 "score": result["score"]["mean"],
-                "scores": {str(t["world_seed"]): t["scores"]["score"] for t in result["tasks"]},
+                "scores": result["per_world_seed"],
                 "load_before": load,
                 "load_after": _load(),
             }

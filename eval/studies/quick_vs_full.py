@@ -51,14 +51,14 @@ def _means(path: Path, quick: bool) -> dict[str, dict[str, Any]]:
     for result in load_results(source):
         if path.is_file() and Path(result["_file"]).resolve() != path.resolve():
             continue
-        if bool(result["track"]["quick"]) != quick:
+        if result["quick"] != quick:
             continue
         track = out.setdefault(
-            result["track"]["name"],
+            result["track"],
             {"higher_is_better": result["score"]["higher_is_better"], "versions": set()},
         )
-        track["versions"].add(result["track"]["track_version"])
-        track.setdefault("scores", {})[result["method"]["label"]] = result["score"]["mean"]
+        track["versions"].add(result["track_version"])
+        track.setdefault("scores", {})[result["method"]] = result["score"]["mean"]
     return out
 
 

@@ -164,7 +164,7 @@ def _interval(record: dict[str, Any]) -> str:
     """The 95 % interval of a board record's mean, ``[lo, hi]`` or ``(n=2)``, recomputed from
     its seeds' scores by today's method (as ``sfa-gym leaderboard table`` shows it), whichever
     method the file recorded."""
-    from sfa_gym.leaderboard.verify import summarize
+    from sfa_gym.intervals import summarize
 
     values = list(record["per_world_seed"].values())
     score = summarize(values, record["score"]["higher_is_better"])

@@ -154,7 +154,8 @@ class LeaderboardRun:
 def _print_results(paths: list[Path]) -> None:
     """A line per result file: its mean with the interval."""
     for path in paths:
-        score = json.loads(path.read_text())["score"]
+        (result,) = json.loads(path.read_text())["results"]
+        score = result["score"]
         interval = format_interval(score["ci95"], score["n"], digits=3)
         # with too few seeds for an interval the count stands alone, else the method beside it
         method = f" (95 %, {score['interval']})" if score["ci95"] else ""

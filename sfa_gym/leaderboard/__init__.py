@@ -10,8 +10,9 @@
 - :mod:`~sfa_gym.leaderboard.backends`: running the tasks locally or on Ray.
 - :mod:`~sfa_gym.leaderboard.task_files`: each task's file, written as it finishes; a rerun of
   a sweep (:mod:`~sfa_gym.leaderboard.sweep`) runs only the tasks not finished yet.
-- :mod:`~sfa_gym.leaderboard.results`: result files with provenance and intervals, each
-  checked as it is read (:mod:`~sfa_gym.leaderboard.verify`: its fields, its mean recomputed);
+- :mod:`~sfa_gym.leaderboard.results`: results in one format (a sweep's, a published file's)
+  with provenance and intervals, each checked as it is read (its fields, its mean recomputed by
+  :func:`sfa_gym.intervals.summarize`);
   :mod:`~sfa_gym.leaderboard.table`: the table built from them;
   :mod:`~sfa_gym.leaderboard.compare`: a rerun checked against a published run.
 """

@@ -2,8 +2,8 @@
 against the lock (``constraints.txt``), and each navigation result's episode fingerprints
 against the reference result of the same track, track version, method and world seed.
 
-A result records the versions of the locked packages in ``provenance["versions"]`` and each
-navigation task its episodes' fingerprint in ``scores["fingerprint"]``
+A result records the versions of the locked packages in ``versions`` and each navigation
+result its episodes' fingerprint per world seed in ``fingerprints``
 (:func:`~sfa_gym.protocols.navigation.episode_fingerprint`). A result written before either was
 recorded is not marked: nothing says it differs, and :func:`warnings` counts it.
 """
@@ -26,12 +26,8 @@ FINGERPRINT_MARK = "‡"
 
 
 def fingerprints(result: dict[str, Any]) -> dict[int, str]:
-    """``{world seed: episode fingerprint}`` of the tasks of ``result`` that record one."""
-    return {
-        int(task["world_seed"]): task["scores"]["fingerprint"]
-        for task in result["tasks"]
-        if isinstance(task.get("scores", {}).get("fingerprint"), str)
-    }
+    """``{world seed: episode fingerprint}`` of ``result`` (none where it records none)."""
+    return {int(seed): found for seed, found in (result.get("fingerprints") or {}).items()}
 
 
 @dataclass
@@ -123,7 +119,7 @@ def check_board(
     for column in board.tracks:
         cells = board.cells[column]
         for row, result in cells.items():
-            versions = result.get("provenance", {}).get("versions")
+            versions = result.get("versions")
             if versions is None:
                 marks.unrecorded.append((column, row))
             else:
@@ -133,7 +129,7 @@ def check_board(
             theirs = cells.get((row[0], reference))
             if row[1] == reference or theirs is None:
                 continue
-            if theirs["track"].get("track_version") != result["track"].get("track_version"):
+            if theirs["track_version"] != result["track_version"]:
                 continue
             theirs_prints, mine = fingerprints(theirs), fingerprints(result)
             seeds = sorted(
@@ -141,7 +137,7 @@ def check_board(
             )
             if seeds:
                 marks.fingerprints[(column, row)] = seeds
-                cpus = [r.get("provenance", {}).get("cpu_numerics") for r in (result, theirs)]
+                cpus = [r.get("cpu_numerics") for r in (result, theirs)]
                 if None not in cpus and cpus[0] != cpus[1]:
                     marks.cpus[(column, row)] = (cpus[0], cpus[1])
     return marks

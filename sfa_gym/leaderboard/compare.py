@@ -1,6 +1,6 @@
 """Whether a run of the board scored what a reference run scored: result by result (track, size,
 method), world seed by world seed, and each seed's parts (the outdoor tracks' conditions; their
-means where one side is a gathered file).
+means where one side does not record them per seed: results published before schema 3).
 
 Same seed, same numbers is what the board promises: a rerun on this code gives every published
 score to its last stored digit. Where a score differs, the comparison says what else differs
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sfa_gym.leaderboard.results import load_results, mean_parts, one_per_key, result_key
+from sfa_gym.leaderboard.results import load_results, one_per_key, result_key
 
 __all__ = ["Comparison", "compare_results", "comparison_table", "read_results"]
 
@@ -29,7 +29,8 @@ class Comparison:
     Attributes:
         track, quick, method: the result's key.
         status: ``"equal"`` (every world seed both runs scored, and its parts, equal to the
-            last stored digit; only the parts' means where one side is a gathered file),
+            last stored digit; only the parts' means where one side has no
+            ``parts_per_world_seed``),
             ``"differs"``, ``"no common world seed"``, ``"reference only"`` or ``"run only"``.
         seeds: ``(compared, the reference's)`` world seeds.
         largest_difference: the largest absolute difference of a world seed's score or of a
@@ -47,52 +48,39 @@ class Comparison:
 
 
 def read_results(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
-    """The results of a results folder (its result files and gathered files) or of one
-    gathered file, checked as the table checks them.
+    """The results of a results folder or of one results file, checked as the table checks
+    them.
 
     Raises:
         FileNotFoundError: ``path`` does not exist.
-        ResultError: a file that is not a valid result or gathered file.
+        ResultError: a file that is not a valid results file.
     """
     path = Path(path)
     if not path.exists():
-        raise FileNotFoundError(f"{path}: no such results folder or gathered file")
+        raise FileNotFoundError(f"{path}: no such results folder or results file")
     return load_results(path)
 
 
 def _per_seed(result: dict[str, Any]) -> dict[int, float]:
-    return {int(t["world_seed"]): float(t["scores"]["score"]) for t in result["tasks"]}
-
-
-def _seed_parts(result: dict[str, Any]) -> dict[int, dict[str, float]] | None:
-    """Each world seed's parts of the score, where the result holds them per seed (a result
-    file; a gathered entry keeps only their means)."""
-    if "_entry" in result or not all("parts" in t["scores"] for t in result["tasks"]):
-        return None
-    return {int(t["world_seed"]): t["scores"]["parts"] for t in result["tasks"]}
+    return {int(seed): float(value) for seed, value in result["per_world_seed"].items()}
 
 
 def _context(result: dict[str, Any]) -> dict[str, Any]:
     """What, besides the code, decides a result's numbers, by the name the table gives it."""
-    provenance = result.get("provenance") or {}
-    return {
-        "method file": result["method"].get("sha256"),
-        "track version": result["track"].get("track_version"),
-        "size": result["track"].get("size_params"),
-        "cpu numerics": provenance.get("cpu_numerics"),
-        "package versions": provenance.get("versions"),
-    }
+    keys = ("method_sha256", "track_version", "size_params", "cpu_numerics", "versions")
+    names = ("method file", "track version", "size", "cpu numerics", "package versions")
+    return {name: result.get(key) for name, key in zip(names, keys, strict=True)}
 
 
 def _compare(reference: dict[str, Any], run: dict[str, Any]) -> Comparison:
     ours, theirs = _per_seed(reference), _per_seed(run)
     common = sorted(set(ours) & set(theirs))
     differences = [abs(ours[s] - theirs[s]) for s in common]
-    seed_parts = _seed_parts(reference), _seed_parts(run)
-    if seed_parts[0] is not None and seed_parts[1] is not None:  # two result files
-        pairs = [(seed_parts[0][s], seed_parts[1][s]) for s in common]
-    elif len(common) == len(ours) == len(theirs):  # means of the same seeds (a gathered file)
-        pairs = [(mean_parts(reference) or {}, mean_parts(run) or {})]
+    seed_parts = [r.get("parts_per_world_seed") for r in (reference, run)]
+    if None not in seed_parts:  # both record each seed's parts
+        pairs = [(seed_parts[0][str(s)], seed_parts[1][str(s)]) for s in common]
+    elif len(common) == len(ours) == len(theirs):  # the means of the same seeds
+        pairs = [(reference.get("parts") or {}, run.get("parts") or {})]
     else:
         pairs = []
     for a, b in pairs:
@@ -119,11 +107,11 @@ def compare_results(reference: list[dict[str, Any]], run: list[dict[str, Any]]) 
     """Every result of ``reference`` against the result of ``run`` with its key, then the
     results only ``run`` has; sorted by track, size and method.
 
-    A result file replaces a gathered file's entry of the same key, as ``leaderboard publish``
+    A sweep's result replaces a gathered result of the same key, as ``leaderboard publish``
     does (:func:`~sfa_gym.leaderboard.results.one_per_key`).
 
     Raises:
-        ValueError: a run holds two result files, or two gathered entries, of one track, size
+        ValueError: a run holds two sweep results, or two gathered results, of one track, size
             and method.
     """
     ref, new = one_per_key(reference, "the reference"), one_per_key(run, "the run")
@@ -133,7 +121,7 @@ def compare_results(reference: list[dict[str, Any]], run: list[dict[str, Any]]) 
             rows.append(_compare(ref[key], new[key]))
         else:
             status = "reference only" if key in ref else "run only"
-            seeds = len(ref[key]["tasks"]) if key in ref else 0
+            seeds = len(ref[key]["per_world_seed"]) if key in ref else 0
             rows.append(Comparison(*key, status, (0, seeds), None, ()))
     return rows
 

@@ -65,9 +65,7 @@ def _score_cell(result: dict[str, Any] | None) -> str:
     if result is None:
         return '<td data-value="">-</td>'
     score = result["score"]
-    seeds = ", ".join(
-        f"{task['world_seed']}: {task['scores']['score']:.3f}" for task in result["tasks"]
-    )
+    seeds = ", ".join(f"{seed}: {value:.3f}" for seed, value in result["per_world_seed"].items())
     interval = f"<br><small>{format_interval(score['ci95'], score['n'])}</small>"
     return (
         f'<td data-value="{score["mean"]!r}" title="world seeds: {escape(seeds)}">'
@@ -178,7 +176,7 @@ def results_page(folder: str | os.PathLike[str] | None = None) -> str:
     ]
     tracks = current_tracks()  # results of another track version or seed set go in columns apart
     for quick, title in ((False, "The board"), (True, "The quick board")):
-        size = [r for r in results if r["track"]["quick"] == quick]
+        size = [r for r in results if r["quick"] == quick]
         if not size:
             continue
         board = arrange(size, tracks)

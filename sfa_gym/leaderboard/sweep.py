@@ -29,7 +29,7 @@ from sfa_gym.leaderboard.results import (
     make_result,
     method_label,
     result_path,
-    write_result,
+    write_results,
 )
 from sfa_gym.leaderboard.task_files import (
     TASKS_FOLDER,
@@ -427,22 +427,20 @@ def _write_pair(
         track=track,
         quick=quick,
         method=method,
-        # what a task scored for others joined to it is theirs (their own files hold it)
-        tasks=[{k: v for k, v in r["output"].items() if k != "shared"} for r in records],
+        tasks=[r["output"] for r in records],
         higher_is_better=HIGHER_IS_BETTER[track.kind],
         backend="+".join(sorted({r["provenance"]["backend"] for r in records})),
-        seconds=sum(r["output"]["seconds"] for r in records),
+        # the result of its tasks, not of this sitting: dated by its last task, so that a rerun
+        # that reuses every task gives the same file
+        created=max(r["provenance"]["created"] for r in records),
     )
-    # the result of its tasks, not of this sitting: dated by its last task, so that a rerun
-    # that reuses every task gives the same file
-    result["provenance"]["created"] = max(r["provenance"]["created"] for r in records)
     path = result_path(results, track.name, method["label"], quick)
     try:
-        unchanged = json.loads(path.read_text()) == json.loads(json.dumps(result))
-    except (OSError, ValueError):
+        unchanged = json.loads(path.read_text())["results"] == [result]
+    except (OSError, ValueError, KeyError, TypeError):
         unchanged = False
     if not unchanged:
-        write_result(path, result)
+        write_results(path, [result])
     return path
 
 

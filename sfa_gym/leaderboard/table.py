@@ -22,13 +22,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 from sfa_gym.intervals import format_interval
-from sfa_gym.leaderboard.results import (
-    REFERENCE,
-    YOURS,
-    load_results,
-    mean_parts,
-    navigation_spl,
-)
+from sfa_gym.leaderboard.results import REFERENCE, YOURS, load_results
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -103,9 +97,8 @@ def column_of(result: dict[str, Any], tracks: Mapping[str, Track]) -> tuple[str,
     ``" other size"`` when a quick result's parameters are not the track file's quick size
     (``" size not recorded"`` when it does not say), then ``" (quick)"`` at the quick size. A
     track not in ``tracks`` is taken as it is."""
-    info = result["track"]
-    name, quick, version = info["name"], info["quick"], info["track_version"]
-    seeds = sorted(task["world_seed"] for task in result["tasks"])
+    name, quick, version = result["track"], result["quick"], result["track_version"]
+    seeds = sorted(int(seed) for seed in result["per_world_seed"])
     track = tracks.get(name)
     why = None
     if track is not None and version != track.track_version:
@@ -114,10 +107,12 @@ def column_of(result: dict[str, Any], tracks: Mapping[str, Track]) -> tuple[str,
     elif track is not None and seeds != sorted(track.sized(quick)[0]):
         name += f" seeds {seeds}"
         why = f"world seeds {seeds}; the track file's are {sorted(track.sized(quick)[0])}"
-    elif track is not None and quick and info.get("size_params") != _as_json(track.sized(True)[1]):
+    elif (
+        track is not None and quick and result.get("size_params") != _as_json(track.sized(True)[1])
+    ):
         # the quick section changed without a new track version (it is not the track's
         # definition); a result that does not record its size is of an unknown one
-        recorded = info.get("size_params")
+        recorded = result.get("size_params")
         if recorded is None:
             name += " size not recorded"
             why = "the result does not record its quick size (written before results did)"
@@ -174,7 +169,7 @@ def arrange(results: list[dict[str, Any]], tracks: Mapping[str, Track] | None = 
         key, why = column_of(r, tracks or {})
         if why is not None:
             apart[key] = why
-        cells.setdefault(key, {})[(r["method"]["label"], r.get("_source", YOURS))] = r
+        cells.setdefault(key, {})[(r["method"], r.get("_source", YOURS))] = r
     order = {YOURS: 0, REFERENCE: 1}
     rows = sorted(
         {row for col in cells.values() for row in col},
@@ -192,7 +187,7 @@ def _parts_tables(board: Board) -> list[str]:
     condition, the unvisited region), a table of each part's mean over the world seeds."""
     lines: list[str] = []
     for t in board.tracks:
-        parts_of = {row: mean_parts(r) for row, r in board.cells[t].items()}
+        parts_of = {row: r.get("parts") for row, r in board.cells[t].items()}
         if None in parts_of.values():
             continue
         parts = list(dict.fromkeys(p for found in parts_of.values() for p in found))
@@ -287,9 +282,9 @@ def csv_rows(board: Board, marks: CellMarks | None = None) -> list[dict[str, Any
                     "method": row[0],
                     "source": row[1],
                     "column": column,
-                    "track": result["track"]["name"],
-                    "track_version": result["track"]["track_version"],
-                    "quick": result["track"]["quick"],
+                    "track": result["track"],
+                    "track_version": result["track_version"],
+                    "quick": result["quick"],
                     "mean": score["mean"],
                     "ci95_low": low,
                     "ci95_high": high,
@@ -320,7 +315,7 @@ def _spl_table(board: Board) -> list[str]:
     """Markdown lines: the navigation tracks' SPL (success weighted by path length), the mean over
     the world seeds, a column per navigation track; none when no result has it."""
     spl = {
-        t: {row: found for row, r in board.cells[t].items() if (found := navigation_spl(r))}
+        t: {row: found for row, r in board.cells[t].items() if (found := r.get("spl"))}
         for t in board.tracks
     }
     tracks = [t for t in board.tracks if spl[t]]
@@ -348,9 +343,9 @@ def detail_tables(board: Board) -> list[str]:
     for t in board.tracks:
         for source in dict.fromkeys(row[1] for row in board.rows if row in board.cells[t]):
             any_result = next(r for row, r in board.cells[t].items() if row[1] == source)
-            seeds = [task["world_seed"] for task in any_result["tasks"]]
-            commit = any_result["provenance"].get("git_commit") or "-"
-            version = any_result["track"]["track_version"]
+            seeds = [int(seed) for seed in any_result["per_world_seed"]]
+            commit = any_result.get("git_commit") or "-"
+            version = any_result["track_version"]
             lines.append(f"| {t} | {source} | {version} | {seeds} | {commit} |")
     return lines
 
@@ -381,9 +376,7 @@ def draw_chart(board: Board) -> Figure:
         colors = ["tab:gray" if g else "tab:blue" for g in gray]
         ax.bar(range(len(rows)), means, yerr=err, capsize=3, color=colors, alpha=0.8)
         # each world seed's score: with few seeds the interval is wide or none, the points say why
-        points = [
-            [task["scores"]["score"] for task in board.cells[t][row]["tasks"]] for row in rows
-        ]
+        points = [list(board.cells[t][row]["per_world_seed"].values()) for row in rows]
         for i, values in enumerate(points):
             ax.plot([i] * len(values), values, "k.", markersize=4)
         higher = board.higher_is_better(t)
