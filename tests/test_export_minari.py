@@ -17,7 +17,7 @@ from sfa_gym.cli import main  # noqa: E402
 from sfa_gym.export import MINARI_EXTRA, export_minari  # noqa: E402
 from sfa_gym.recording.drivers import GridPositions, LawnMowerDriver  # noqa: E402
 from sfa_gym.recording.recorder import record  # noqa: E402
-from sfa_gym.recording.runfile import RunFormatError, load_run  # noqa: E402
+from sfa_gym.recording.runfile import load_run  # noqa: E402
 from sfa_gym.sim.camera import PanoramaSpec  # noqa: E402
 
 ENV_ID = "sfa_gym/OmniRover-v0"
@@ -41,8 +41,8 @@ def _with_header(run, copy, **changes):
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    """A 7-sample trajectory run in chunks of 3, a 4-pose pose-list run, and the trajectory
-    again in chunks of one sample (8x24 panoramas)."""
+    """A 7-sample trajectory run in blocks of 3, a 4-pose pose-list run, and the trajectory
+    again in blocks of one sample (8x24 panoramas)."""
     root = tmp_path_factory.mktemp("runs")
     mower = LawnMowerDriver(spacing=1.0, pattern="rows")
     trajectory = _record(root / "mower.run", mower, n_steps=7)
@@ -64,7 +64,7 @@ def datasets(tmp_path, monkeypatch):
 def test_the_episode_read_back_is_the_run(runs, which, block_size):
     path = runs[which]
     run = load_run(path)
-    if which == 2:  # one sample a chunk: the first block joins two chunks
+    if which == 2:  # recorded one sample at a time: the same run
         np.testing.assert_array_equal(run.panoramas, load_run(runs[0]).panoramas)
     export_minari(path, "sfa-gym/mower-v0", block_size=block_size)
 
@@ -138,19 +138,19 @@ def test_an_incomplete_run_is_refused_unless_asked_for(tmp_path):
     assert len(episode) == 2 and list(episode.truncations) == [False, True]
 
 
-def test_a_damaged_chunk_leaves_no_half_written_dataset(runs, tmp_path, datasets):
-    copy = tmp_path / "damaged.run"
-    shutil.copytree(runs[0], copy)
-    # a valid chunk file whose pixels differ from those recorded: only its checksum tells,
-    # when the export reaches it, after the first blocks are written
-    last = sorted(copy.glob("chunk-*.npz"))[-1]
-    with np.load(last) as npz:
-        arrays = dict(npz)
-    arrays["panoramas"][0, 0, 0] ^= 0xFF
-    np.savez(last, **arrays)
-    load_run(copy)  # opens: the damage is found when the pixels are read
-    with pytest.raises(RunFormatError, match="chunk-00002.npz is corrupted"):
-        export_minari(copy, "damaged-v0", block_size=3)
+def test_a_failure_midway_leaves_no_half_written_dataset(runs, datasets, monkeypatch):
+    from sfa_gym.export import minari_dataset
+
+    block = minari_dataset._block
+
+    def failing(run, start, *rest):  # after the first blocks are written
+        if start >= 6:
+            raise OSError("disk full")
+        return block(run, start, *rest)
+
+    monkeypatch.setattr(minari_dataset, "_block", failing)
+    with pytest.raises(OSError, match="disk full"):
+        export_minari(runs[0], "damaged-v0", block_size=3)
     assert not (datasets / "damaged-v0").exists()
 
 

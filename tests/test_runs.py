@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import shutil
@@ -16,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from sfa_gym.recording import runfile
 from sfa_gym.recording.drivers import GridPositions, LawnMowerDriver, LoopDriver, RandomWalkDriver
 from sfa_gym.recording.recorder import ReplayMismatchError, RunMismatchError, record
 from sfa_gym.recording.runfile import RunFormatError, load_run
@@ -118,11 +118,10 @@ def _stop_after(n_samples: int):
 # ------------------------------------------------------------------------ roundtrip
 
 
-@pytest.mark.parametrize("compress", [False, True])
-def test_record_load_roundtrip_equals_an_independent_rollout(tmp_path, compress):
+def test_record_load_roundtrip_equals_an_independent_rollout(tmp_path):
     run = record(
         TinyRover(), _mower(), tmp_path / "a.run", n_steps=23, chunk_size=5, seed=3,
-        compress=compress, progress=False,
+        progress=False,
     )  # fmt: skip
     frames, poses, actions = _rollout(TinyRover(), _mower(), 23, seed=3)
     loaded = load_run(tmp_path / "a.run")
@@ -135,19 +134,18 @@ def test_record_load_roundtrip_equals_an_independent_rollout(tmp_path, compress)
         assert r.panoramas.shape == (23, 4, 24, 3) and r.panoramas.dtype == np.uint8
         assert r.poses.dtype == np.float64 and r.actions.dtype == np.float32
     header = json.loads((tmp_path / "a.run" / "run.json").read_text())
-    assert header["format"] == "sfa-gym-run" and header["version"] == 1
-    assert [c["n"] for c in header["chunks"]] == [5, 5, 5, 5, 3]
+    assert header["format"] == "sfa-gym-run" and header["version"] == 2 and header["n"] == 23
     assert header["driver"]["type"] == "LawnMowerDriver" and header["seed"] == 3
-    # no temporaries left behind; chunks are plain npz without pickles
+    # no temporaries left behind; the arrays are plain .npy files without pickles
     assert sorted(p.name for p in (tmp_path / "a.run").iterdir()) == [
-        *(f"chunk-{i:05d}.npz" for i in range(5)),
-        "run.json",
-    ]
-    with np.load(tmp_path / "a.run" / "chunk-00004.npz", allow_pickle=False) as npz:
-        np.testing.assert_array_equal(npz["poses"], poses[20:])
+        "actions.npy", "panoramas.npy", "poses.npy", "run.json", "time.npy",
+    ]  # fmt: skip
+    np.testing.assert_array_equal(np.load(tmp_path / "a.run" / "panoramas.npy"), frames)
+    np.testing.assert_array_equal(np.load(tmp_path / "a.run" / "poses.npy"), poses)
 
 
-def test_panoramas_index_like_an_array(tmp_path):
+def test_panoramas_index_like_an_array(tmp_path, monkeypatch):
+    monkeypatch.setattr(runfile, "BLOCK_BYTES", 4 * 24 * 3 * 5)  # mapped 5 samples at a time
     run = record(
         TinyRover(), _mower(), tmp_path / "a.run", n_steps=17, chunk_size=4, progress=False
     )
@@ -175,8 +173,8 @@ def test_driver_done_ends_the_run(tmp_path):
 # --------------------------------------------------------------------------- resume
 
 
-@pytest.mark.parametrize("stop_at", [5, 10])
-def test_interrupted_recording_resumes_to_the_same_arrays(tmp_path, stop_at):
+@pytest.mark.parametrize(("stop_at", "stored"), [(5, 5), (10, 10), (10, 5)])
+def test_interrupted_recording_resumes_to_the_same_arrays(tmp_path, stop_at, stored):
     reference = record(
         TinyRover(), _mower(), tmp_path / "ref.run", n_steps=23, chunk_size=5, seed=1,
         progress=False,
@@ -187,8 +185,11 @@ def test_interrupted_recording_resumes_to_the_same_arrays(tmp_path, stop_at):
             TinyRover(), _mower(), out, n_steps=23, chunk_size=5, seed=1, progress=False,
             on_chunk=_stop_after(stop_at),
         )  # fmt: skip
+    header = json.loads((out / "run.json").read_text())
+    # stored < stop_at: interrupted after a block's arrays were written, before its header
+    (out / "run.json").write_text(json.dumps({**header, "n": stored}))
     partial = load_run(out)
-    assert not partial.complete and len(partial) == stop_at
+    assert not partial.complete and len(partial) == stored
     # a fresh env and driver: the state is rebuilt by replaying the stored actions
     resumed = record(TinyRover(), _mower(), out, n_steps=23, chunk_size=5, seed=1, progress=False)
     assert resumed.complete
@@ -238,10 +239,10 @@ def test_pose_list_run_resumes_to_the_same_arrays(tmp_path):
 
 def test_complete_run_is_returned_not_rerecorded(tmp_path):
     first = record(TinyRover(), _mower(), tmp_path / "a.run", n_steps=6, progress=False)
-    mtime = (tmp_path / "a.run" / "chunk-00000.npz").stat().st_mtime_ns
+    mtime = (tmp_path / "a.run" / "panoramas.npy").stat().st_mtime_ns
     again = record(TinyRover(), _mower(), tmp_path / "a.run", n_steps=6, progress=False)
     _assert_same_run(first, again)
-    assert (tmp_path / "a.run" / "chunk-00000.npz").stat().st_mtime_ns == mtime
+    assert (tmp_path / "a.run" / "panoramas.npy").stat().st_mtime_ns == mtime
 
 
 def test_resume_with_other_settings_is_refused(tmp_path):
@@ -293,52 +294,46 @@ def _mapped_files() -> set[str]:
     return {line.split(maxsplit=5)[-1] for line in Path("/proc/self/maps").read_text().splitlines()}
 
 
-@pytest.mark.skipif(not Path("/proc/self/maps").is_file(), reason="reads Linux's /proc/self/maps")
-def test_reading_panoramas_leaves_no_chunk_mapped(long_chunks):
-    """A map left open keeps every page read resident beside the copies made of them."""
-    run = load_run(long_chunks)
-    chunks = {str(f.resolve()) for f in long_chunks.glob("chunk-*.npz")}
-    kept = [run.panoramas[[0, 40, 69]], run.panoramas[10:50], np.asarray(run.panoramas)]
-    kept += [next(iter(run.panoramas)).copy(), run.panoramas.chunk(1)[3].copy()]
-    assert len(chunks) == 3 and not chunks & _mapped_files()
-    chunk = run.panoramas.chunk(2)  # held by the caller: mapped while it is held
-    assert str((long_chunks / "chunk-00002.npz").resolve()) in _mapped_files()
-    del chunk
-    assert not chunks & _mapped_files()
-    np.testing.assert_array_equal(kept[0][1], kept[1][30])
-
-
 @pytest.fixture
 def small_run(tmp_path):
     record(TinyRover(), _mower(), tmp_path / "a.run", n_steps=12, chunk_size=5, progress=False)
     return tmp_path / "a.run"
 
 
-def test_truncated_chunk_is_named(small_run):
-    chunk = small_run / "chunk-00001.npz"
-    data = chunk.read_bytes()
-    chunk.write_bytes(data[: len(data) // 2])
-    with pytest.raises(RunFormatError, match=r"chunk-00001\.npz.*(damaged|truncated)"):
-        load_run(small_run)
+@pytest.mark.skipif(not Path("/proc/self/maps").is_file(), reason="reads Linux's /proc/self/maps")
+def test_reading_panoramas_leaves_nothing_mapped(small_run, monkeypatch):
+    """A map left open keeps every page read resident beside the copies made of them."""
+    monkeypatch.setattr(runfile, "BLOCK_BYTES", 4 * 24 * 3 * 5)  # mapped 5 samples at a time
+    run = load_run(small_run)
+    file = str((small_run / "panoramas.npy").resolve())
+    kept = [run.panoramas[[0, 4, 11]], run.panoramas[2:10], np.asarray(run.panoramas)]
+    kept.append(next(iter(run.panoramas)).copy())
+    assert file not in _mapped_files()
+    row = next(iter(run.panoramas))  # held by the caller: mapped while it is held
+    assert file in _mapped_files()
+    del row
+    assert file not in _mapped_files()
+    np.testing.assert_array_equal(kept[0][1], kept[1][2])
 
 
-def test_missing_chunk_is_named(small_run):
-    (small_run / "chunk-00002.npz").unlink()
-    with pytest.raises(RunFormatError, match=r"chunk-00002\.npz is missing"):
-        load_run(small_run)
+def _truncate(path: Path) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
 
 
-def test_foreign_npz_is_named(small_run):
-    np.savez(small_run / "chunk-00000.npz", weights=np.zeros(3))
-    with pytest.raises(RunFormatError, match=r"chunk-00000\.npz is not a sfa-gym run chunk"):
-        load_run(small_run)
-
-
-def test_chunk_with_wrong_shape_is_named(small_run):
-    good = dict(np.load(small_run / "chunk-00000.npz"))
-    good["poses"] = good["poses"][:, :2]
-    np.savez(small_run / "chunk-00000.npz", **good)
-    with pytest.raises(RunFormatError, match=r"chunk-00000\.npz: array 'poses' has shape"):
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        (_truncate, r"panoramas\.npy is damaged, truncated or foreign"),
+        (Path.unlink, r"panoramas\.npy is missing"),
+        (lambda p: np.save(p, np.array([{}]), allow_pickle=True), "Python objects"),
+        (lambda p: np.save(p, np.zeros((12, 4, 24), np.uint8)), r"shape \(12, 4, 24\)"),
+        (lambda p: np.save(p, np.zeros((11, 4, 24, 3), np.uint8)), r"run\.json says 12"),
+    ],
+)
+def test_a_damaged_array_file_is_named(small_run, damage, message):
+    damage(small_run / "panoramas.npy")
+    with pytest.raises(RunFormatError, match=message):
         load_run(small_run)
 
 
@@ -348,8 +343,8 @@ def test_chunk_with_wrong_shape_is_named(small_run):
         ('{"format": "other-tool", "version": 1}', "not a 'sfa-gym-run' header"),
         ("[1, 2, 3]", "not a 'sfa-gym-run' header"),
         ("{not json", "not valid JSON"),
-        ('{"format": "sfa-gym-run", "version": 2}', "format version 2"),
-        ('{"format": "sfa-gym-run", "version": 1, "chunks": {}}', "lacks a valid 'chunks'"),
+        ('{"format": "sfa-gym-run", "version": 1}', "format version 1.*reads version 2"),
+        ('{"format": "sfa-gym-run", "version": 2, "shape": [4, 24, 3]}', "lacks a valid 'shape'"),
     ],
 )
 def test_foreign_header_is_named(small_run, text, message):
@@ -415,79 +410,16 @@ def test_real_env_pose_list_run(tmp_path):
     np.testing.assert_array_equal(run.panoramas[1], obs)
 
 
-# ------------------------------------------------------------------------ checksums
-
-
-def _flip_a_panorama_byte(run_dir, chunk: int) -> None:
-    """Invert one byte deep inside the memory-mapped panoramas of a chunk.
-
-    Deep: opening a chunk reads the first 4 kB of each member (the zip reader's block), and
-    for a member that short the zip's own CRC would catch the change.
-    """
-    offset = load_run(run_dir, verify=False).panoramas.chunk(chunk).offset
-    path = run_dir / f"chunk-{chunk:05d}.npz"
-    data = bytearray(path.read_bytes())
-    data[offset + 6000] ^= 0xFF
-    path.write_bytes(bytes(data))
-
-
-@pytest.fixture
-def long_chunks(tmp_path):
-    """Chunks of 30 samples (8.6 kB of panoramas each)."""
-    record(TinyRover(), _mower(), tmp_path / "b.run", n_steps=70, chunk_size=30, progress=False)
-    return tmp_path / "b.run"
-
-
-def test_chunks_carry_their_sha256_in_the_header(small_run):
-    header = json.loads((small_run / "run.json").read_text())
-    for entry in header["chunks"]:
-        digest = hashlib.sha256((small_run / entry["file"]).read_bytes()).hexdigest()
-        assert entry["sha256"] == digest
-
-
-def test_flipped_bytes_in_a_chunk_are_detected_and_the_chunk_named(long_chunks):
-    clean = np.asarray(load_run(long_chunks).panoramas)
-    _flip_a_panorama_byte(long_chunks, 1)
-    run = load_run(long_chunks)  # opening stays cheap: chunks are checked when first read
-    np.testing.assert_array_equal(run.panoramas[:30], clean[:30])  # chunk 0 is intact
-    with pytest.raises(RunFormatError, match=r"chunk-00001\.npz is corrupted"):
-        run.panoramas[31]
-    with pytest.raises(RunFormatError, match=r"chunk-00001\.npz is corrupted"):
-        load_run(long_chunks).verify()
-    unchecked = np.asarray(load_run(long_chunks, verify=False).panoramas)
-    assert (unchecked != clean).sum() == 1
-
-
-def test_runs_without_checksums_still_load(small_run):
-    path = small_run / "run.json"
-    header = json.loads(path.read_text())
-    for entry in header["chunks"]:
-        del entry["sha256"]
-    path.write_text(json.dumps(header))
-    run = load_run(small_run)
-    run.verify()
-    assert len(run) == 12 and np.asarray(run.panoramas).shape == (12, 4, 24, 3)
-
-
-def test_a_malformed_checksum_is_named(small_run):
-    path = small_run / "run.json"
-    header = json.loads(path.read_text())
-    header["chunks"][2]["sha256"] = "abc"
-    path.write_text(json.dumps(header))
-    with pytest.raises(RunFormatError, match=r"chunk-00002\.npz.*64 hex digits"):
-        load_run(small_run)
-
-
-def test_resuming_checks_the_stored_chunks(tmp_path):
+def test_resuming_a_damaged_run_is_refused(tmp_path):
     out = tmp_path / "a.run"
     with pytest.raises(KeyboardInterrupt):
         record(
-            TinyRover(), _mower(), out, n_steps=90, chunk_size=30, progress=False,
-            on_chunk=_stop_after(60),
+            TinyRover(), _mower(), out, n_steps=20, chunk_size=5, progress=False,
+            on_chunk=_stop_after(10),
         )  # fmt: skip
-    _flip_a_panorama_byte(out, 0)
-    with pytest.raises(RunFormatError, match=r"chunk-00000\.npz is corrupted"):
-        record(TinyRover(), _mower(), out, n_steps=90, chunk_size=30, progress=False)
+    _truncate(out / "poses.npy")
+    with pytest.raises(RunFormatError, match=r"poses\.npy is damaged"):
+        record(TinyRover(), _mower(), out, n_steps=20, chunk_size=5, progress=False)
 
 
 # ------------------------------------------------- nothing is written before the checks

@@ -32,7 +32,7 @@ def package_copy(tmp_path, monkeypatch) -> Path:
 
 
 def test_the_hash_reads_the_sources_from_disk_each_time(package_copy):
-    installed = source_hash.sources_sha256(Path(sfa_gym.__file__).parents[1], ["sfa_gym"])
+    installed = source_hash.package_sources_sha256(Path(sfa_gym.__file__).parent)
     before = source_hash.package_sources_sha256()
     assert before == installed  # the same files, the same relative paths
     source_hash.check_sources(before, "now")

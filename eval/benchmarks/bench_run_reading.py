@@ -1,26 +1,27 @@
 """Benchmark: the memory a process holds after reading a recorded run's panoramas the way the
 evaluator does (``load_run(path).panoramas[:]``, and every fifth sample), against the same
-panoramas read chunk by chunk with ``np.load`` into one array (the reference: the copy alone).
+panoramas read with ``np.load`` from ``panoramas.npy`` (the reference: the copy alone).
 
 The run is a pose-list run of the outdoor tracks' test size (``--panoramas`` of 60 x 600),
-written by :func:`sfa_gym.recording.recorder.record` in chunks of 500 from an env that shows
+written by :func:`sfa_gym.recording.recorder.record` in blocks of 500 from an env that shows
 seeded random pixels: what a read holds does not depend on them, and no rendering is needed.
 Every case runs in its own child process, which reports from ``/proc/self/status`` how much its
 peak resident memory (``VmHWM``) rose over its resident memory before the read and, holding
 the copy, how much its anonymous and its file-backed resident memory grew (``RssAnon``,
-``RssFile``), and the read's wall-clock seconds. A chunk left memory-mapped after the read shows
+``RssFile``), and the read's wall-clock seconds. A file left memory-mapped after the read shows
 as file-backed memory beside the copy: the same panoramas counted twice in the peak a
 leaderboard task records (``task_peak_rss_mb``).
 
 Usage (from the repository root; under a minute, Linux only)::
 
     .venv/bin/python -m eval.benchmarks.bench_run_reading [--panoramas 2800]
-    git worktree add /tmp/old 6a2d1a6   # the reader before each read mapped its chunk afresh
-    .venv/bin/python -m eval.benchmarks.bench_run_reading --reader /tmp/old \
-        --out published/benchmarks/run_reading_6a2d1a6.json
+    .venv/bin/python -m eval.benchmarks.bench_run_reading --reader /tmp/other-checkout \
+        --out published/benchmarks/run_reading_other.json
 
-Writes ``published/benchmarks/run_reading.json`` (``--out``; it records the reader's commit)
-and prints the table of docs/speed.md for it.
+(``--reader``: a checkout that reads the same run format, version 2; the published files of
+6a2d1a6 and aa72c75 were measured on the chunked format of version 1.) Writes
+``published/benchmarks/run_reading.json`` (``--out``; it records the reader's commit) and
+prints the table of docs/speed.md for it.
 """
 
 from __future__ import annotations
@@ -45,8 +46,8 @@ from sfa_gym.recording.drivers import GridPositions
 from sfa_gym.recording.recorder import record
 from sfa_gym.recording.runfile import load_run
 
-Case = Literal["np.load, chunk by chunk", "panoramas[:]", "panoramas[::5]"]
-CASES: tuple[Case, ...] = ("np.load, chunk by chunk", "panoramas[:]", "panoramas[::5]")
+Case = Literal["np.load", "panoramas[:]", "panoramas[::5]"]
+CASES: tuple[Case, ...] = ("np.load", "panoramas[:]", "panoramas[::5]")
 SHAPE = (60, 600, 3)
 CHUNK = 500
 
@@ -97,17 +98,11 @@ def _status_mb() -> dict[str, float]:
 def _read(case: Case, run_dir: Path) -> None:
     """One child: read the run, print its memory figures as JSON on one line."""
     run = load_run(run_dir)
-    run.verify()  # hash every chunk first, so that each case starts from the same page cache
+    (run_dir / "panoramas.npy").read_bytes()  # each case starts from the same page cache
     before = _status_mb()
     start_s = time.perf_counter()
-    if case == "np.load, chunk by chunk":
-        kept = np.empty(run.panoramas.shape, np.uint8)
-        start = 0
-        for file in sorted(run_dir.glob("chunk-*.npz")):
-            with np.load(file, allow_pickle=False) as npz:
-                chunk = npz["panoramas"]
-            kept[start : start + len(chunk)] = chunk
-            start += len(chunk)
+    if case == "np.load":
+        kept = np.load(run_dir / "panoramas.npy", allow_pickle=False)
     else:
         kept = run.panoramas[:] if case == "panoramas[:]" else run.panoramas[::5]
     seconds = time.perf_counter() - start_s

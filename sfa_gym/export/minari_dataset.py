@@ -27,12 +27,10 @@ own reset, with no action leading from one to the next, so they hold no transiti
 episode to be made of (:func:`~sfa_gym.recording.runfile.load_run` reads their panoramas and
 poses as arrays).
 
-The episode is written in blocks of at most ``block_size`` samples cut inside the run's chunks,
-each appended to the episode, and the panoramas go from the chunks' memory maps into the HDF5
-file without a copy (a compressed chunk is decoded whole first): exporting a 3000-sample 60x600
-run (309 MiB of panoramas) raised the process's anonymous memory by 31 MiB at most, whatever the
-run's length. The file is as large as the panoramas (a 20,000-sample 60x600 run: 2.2 GB), as
-Minari's HDF5 storage does not compress.
+The episode is written in blocks of at most ``block_size`` samples, each copied from the run's
+memory-mapped panoramas and appended to the episode, so the memory an export takes does not
+grow with the run's length. The file is as large as the panoramas (a 20,000-sample 60x600
+run: 2.2 GB), as Minari's HDF5 storage does not compress.
 """
 
 from __future__ import annotations
@@ -40,7 +38,6 @@ from __future__ import annotations
 import dataclasses
 import shutil
 import warnings
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -169,23 +166,6 @@ def _ends(run: Run) -> tuple[bool, bool]:
     return terminated, not terminated
 
 
-def _pieces(run: Run, block_size: int) -> Iterator[tuple[int, NDArray[np.uint8]]]:
-    """``(start, panoramas)`` of consecutive blocks of at most ``block_size`` samples, cut
-    inside the run's chunks, so that a block is a view of a chunk's memory map rather than a
-    copy; the first holds at least two samples (one step), as Minari needs to create the
-    episode."""
-    pending: NDArray[np.uint8] | None = None  # a one-sample first chunk, joined to the next
-    for chunk_start, chunk in run.panoramas.iter_chunks():
-        for offset in range(0, len(chunk), block_size):
-            start, piece = chunk_start + offset, chunk[offset : offset + block_size]
-            if pending is not None:
-                start, piece, pending = 0, np.concatenate([pending, piece]), None
-            if start == 0 and len(piece) < 2:
-                pending = np.asarray(piece)
-                continue
-            yield start, piece
-
-
 def _block(
     run: Run, start: int, panoramas: NDArray[np.uint8], last: tuple[bool, bool]
 ) -> dict[str, Any]:
@@ -284,8 +264,9 @@ def export_minari(
         shutil.rmtree(where)
     last = _ends(run)
     try:
-        for start, panoramas in _pieces(run, block_size):
-            data = _block(run, start, panoramas, last)
+        for start in range(0, len(run), block_size):
+            # the first block holds a step (block_size >= 2), as Minari needs to create the episode
+            data = _block(run, start, run.panoramas[start : start + block_size], last)
             if start == 0:
                 buffer = EpisodeBuffer(id=0, seed=meta.get("seed"), **data)
                 with warnings.catch_warnings():

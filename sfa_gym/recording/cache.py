@@ -3,26 +3,25 @@ and reused by every method, every track and every process.
 
 The key of a :class:`RunRequest` is the SHA-256 of a JSON object holding the content of the
 world spec (not only its name: an edited spec is another world), the world seed, the panorama
-spec, the env id, the driver with its arguments, the number of frames, the reset seed, the code
-that makes the pixels (:func:`rendering_code_sha256`: the sources of ``sfa_gym.sim`` and
-``sfa_gym.recording`` and the MuJoCo version), :data:`RENDERING_VERSION` and, when the request
-passes other env kwargs (camera, mirror, rover, dynamics spec, start hour, sensor, control
-period, ...), every one of them whose value differs from the env id's default (its registered
-kwargs over its constructor's defaults). Leaving a kwarg out and passing its default are the
-same run. The defaults themselves (and named presets such as ``rover="outdoor"``) are code,
-like the renderer, and so are in the code hash: an edit to the simulation, the camera, the
-drivers or the recorder is another cache entry, whether or not it changes a pixel (a stale
-picture is worse than a render). The run lives in ``<cache>/<key>.run`` (the run file format of
-:mod:`sfa_gym.recording.runfile`) beside ``<key>.json``, the key's readable content.
+spec, the env id, the driver with its arguments, the number of frames, the reset seed,
+:data:`RENDERING_VERSION`, the MuJoCo version and, when the request passes other env kwargs
+(camera, mirror, rover, dynamics spec, start hour, sensor, control period, ...), every one of
+them whose value differs from the env id's default (its registered kwargs over its
+constructor's defaults). Leaving a kwarg out and passing its default are the same run. The
+defaults themselves (and named presets such as ``rover="outdoor"``) are code, like the
+renderer: a change of the code that changes a run's pixels or poses (the simulation, the
+camera, the drivers, the recorder, a default) bumps :data:`RENDERING_VERSION`, and a test fails
+when a fixed scene's pixels change while the version stays. The run lives in
+``<cache>/<key>.run`` (the run file format of :mod:`sfa_gym.recording.runfile`) beside
+``<key>.json``, the key's readable content.
 
-Concurrency: a process that finds no valid entry takes an exclusive ``fcntl.flock`` on
-``<key>.lock``, looks again (another process may have rendered it meanwhile), renders into a
-temporary directory and renames it to ``<key>.run`` (``os.replace``, atomic), so a reader sees
-a whole run or none. An entry that fails the run format's checks (a missing or truncated chunk,
-a SHA-256 mismatch) is deleted and rendered again, and so is one whose samples, rendered again
-the first time a process reads the entry, differ from it (:mod:`sfa_gym.recording.audit`: a
-checksum stored beside the run proves nothing to whoever could rewrite both). Each render
-appends one line to ``<cache>/renders.log`` (key, pid, seconds).
+Concurrency: a process that finds no complete entry takes an exclusive ``fcntl.flock`` on
+``<key>.lock``, looks again (another process may have rendered it meanwhile) and renders it, so
+that the workers of a sweep that ask for the same run at once render it once. The run format
+writes its header last, so a reader sees the samples written and whether the run is complete;
+a render that was killed is resumed, an entry that fails the run format's checks (a missing or
+truncated file) is rendered again. Each render appends one line to ``<cache>/renders.log``
+(key, pid, seconds).
 """
 
 from __future__ import annotations
@@ -30,15 +29,12 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import fcntl
-import functools
 import hashlib
 import importlib.metadata
 import inspect
 import json
 import math
 import os
-import shutil
-import sys
 import time
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -46,8 +42,6 @@ from pathlib import Path
 from typing import Any
 
 import platformdirs
-
-from sfa_gym.source_hash import sources_sha256
 
 __all__ = [
     "RENDERING_VERSION",
@@ -57,21 +51,14 @@ __all__ = [
     "changed_env_kwargs",
     "default_cache_dir",
     "env_defaults",
-    "rendering_code_sha256",
 ]
 
-RENDERING_VERSION = 2
-"""Bumped when pixels change for a reason the code hash does not see (the package version is
-not part of the key: most releases do not change a pixel). 2: the code hash joined the key."""
-
-# the packages whose code determines a run's pixels and poses (worlds, physics, camera,
-# drivers, recorder); the world specs' content is hashed separately
-_RENDERING_PACKAGES = ("sim", "recording")
+RENDERING_VERSION = 3
+"""Bumped by every change of the code that changes a run's pixels or poses (the package
+version is not part of the key: most releases do not change a pixel). 3: the cache key no
+longer hashes the sources of ``sfa_gym.sim`` and ``sfa_gym.recording``."""
 
 ENV_VARIABLE = "SFA_GYM_CACHE"
-
-# the keys of the entries this process has rendered or checked against their recording
-_CHECKED: set[str] = set()
 
 
 def default_cache_dir() -> Path:
@@ -82,23 +69,6 @@ def default_cache_dir() -> Path:
     if override:
         return Path(override)
     return platformdirs.user_cache_path("sfa-gym", appauthor=False) / "runs"
-
-
-def rendering_code_sha256(root: str | os.PathLike[str] | None = None) -> str:
-    """SHA-256 of the source files of :data:`_RENDERING_PACKAGES` under ``root`` (default: the
-    installed ``sfa_gym``, hashed once per process; path and content, in path order) and of
-    the MuJoCo version: what, besides the request, makes the pixels."""
-    if root is None:
-        return _installed_code_sha256()
-    # the version from the distribution's metadata: importing mujoco here, before the GL
-    # backend is chosen (sim.gl.configure), would fix MuJoCo on GLFW for the whole process
-    mujoco = f"mujoco {importlib.metadata.version('mujoco')}\n".encode()
-    return sources_sha256(root, _RENDERING_PACKAGES, head=mujoco)
-
-
-@functools.cache
-def _installed_code_sha256() -> str:
-    return rendering_code_sha256(Path(__file__).resolve().parent.parent)
 
 
 # the request's own fields: env kwargs may not set them a second time
@@ -244,12 +214,14 @@ class RunRequest:
         panorama = self.panorama_spec()
         content = {
             "rendering_version": RENDERING_VERSION,
-            "rendering_code_sha256": rendering_code_sha256(),
+            # from the distribution's metadata: importing mujoco here, before the GL backend
+            # is chosen (sim.gl.configure), would fix MuJoCo on GLFW for the whole process
+            "mujoco": importlib.metadata.version("mujoco"),
             "env_id": self.env_id,
             "world": world,
             "world_spec_sha256": hashlib.sha256(spec_text.encode()).hexdigest(),
             "world_seed": int(self.world_seed),
-            # None: the env's own camera, whose defaults are code (in the code hash)
+            # None: the env's own camera, whose defaults are code (in RENDERING_VERSION)
             "panorama": None if panorama is None else dataclasses.asdict(panorama),
             "driver": json.loads(json.dumps(self.driver.describe(), default=list)),
             "n_steps": self.n_steps,
@@ -303,79 +275,38 @@ class RunCache:
         """Where the run of ``request`` is (or will be) stored."""
         return self.root / f"{request.key()}.run"
 
-    def _valid(self, path: Path) -> Any | None:
-        """The run at ``path`` if it is complete and every chunk matches its checksum."""
+    def _complete(self, path: Path) -> Any | None:
+        """The run at ``path`` if it is complete and passes the run format's checks."""
         from sfa_gym.recording.runfile import RunFormatError, load_run
 
-        if not path.is_dir():
-            return None
-        try:
+        with contextlib.suppress(RunFormatError, OSError):
             run = load_run(path)
-            run.verify()
-        except (RunFormatError, OSError):
-            return None
-        return run if run.complete else None
+            return run if run.complete else None
+        return None
 
     def get(self, request: RunRequest) -> Any:
-        """The :class:`~sfa_gym.recording.runfile.Run` of ``request``, rendered if no valid
-        entry exists (once, whichever number of processes ask at the same time). An entry is
-        valid when its chunks match their checksums and, the first time this process reads it,
-        samples rendered again match it (:mod:`~sfa_gym.recording.audit`)."""
+        """The :class:`~sfa_gym.recording.runfile.Run` of ``request``, rendered if no complete
+        entry exists (once, whichever number of processes ask at the same time)."""
+        from sfa_gym.files import write_json_atomic
+        from sfa_gym.recording.recorder import ReplayMismatchError, RunMismatchError
+        from sfa_gym.recording.runfile import RunFormatError
+
         path = self.path(request)
-        run = self._valid(path)
-        if run is not None and self._matches_recording(request, run):
+        run = self._complete(path)
+        if run is not None:
             return run
         self.root.mkdir(parents=True, exist_ok=True)
         with _locked(path.with_suffix(".lock")):
-            run = self._valid(path)
-            if run is not None and self._matches_recording(request, run):
+            run = self._complete(path)
+            if run is not None:
                 return run
-            return self._render(request, path)
-
-    def _matches_recording(self, request: RunRequest, run: Any) -> bool:
-        """Whether ``run`` matches samples of ``request`` rendered again; checked once per
-        process and entry (a mismatch is said on stderr: the entry is then rendered again)."""
-        from sfa_gym.recording.audit import rerender_mismatch
-
-        key = request.key()
-        if key in _CHECKED:
-            return True
-        mismatch = rerender_mismatch(request, run)
-        if mismatch is not None:
-            print(
-                f"sfa-gym: render cache entry {run.path} does not match its recording "
-                f"({mismatch}); rendering it again",
-                file=sys.stderr,
-            )
-            return False
-        _CHECKED.add(key)
-        return True
-
-    def _render(self, request: RunRequest, path: Path) -> Any:
-        from sfa_gym.files import write_json_atomic
-        from sfa_gym.recording.recorder import record
-        from sfa_gym.recording.runfile import load_run
-
-        if path.exists():
-            # damaged or incomplete: nothing in it is trusted
-            shutil.rmtree(path)
-        # under the entry's lock no other process renders it: a temporary of it is left by a
-        # render that was killed
-        for stale in path.parent.glob(f".{path.stem}.*.tmp.run"):
-            shutil.rmtree(stale, ignore_errors=True)
-        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.run")
-        started = time.perf_counter()
-        record(
-            request.env_id,
-            request.driver,
-            tmp,
-            n_steps=request.n_steps,
-            seed=request.seed,
-            env_kwargs=request.record_kwargs(),
-            progress=self.progress,
-        )
-        os.replace(tmp, path)
-        seconds = time.perf_counter() - started
+            started = time.perf_counter()
+            try:  # a killed render resumes
+                run = _record(request, path, self.progress)
+            except (RunFormatError, RunMismatchError, ReplayMismatchError):
+                # damaged: nothing in it is kept
+                run = _record(request, path, self.progress, overwrite=True)
+            seconds = time.perf_counter() - started
         write_json_atomic(path.with_suffix(".json"), request.key_content())
         line = f"{path.stem} pid={os.getpid()} seconds={seconds:.2f}\n"
         # one write of a short line with O_APPEND: lines of concurrent processes do not mix
@@ -384,8 +315,7 @@ class RunCache:
             os.write(fd, line.encode())
         finally:
             os.close(fd)
-        _CHECKED.add(request.key())  # rendered by this process
-        return load_run(path)
+        return run
 
     def renders(self) -> list[str]:
         """The lines of ``renders.log``: one per render since the cache was created."""
@@ -422,20 +352,26 @@ class RunFolder:
         Raises:
             KeyError: a request this folder was not given a name for.
         """
-        from sfa_gym.recording.recorder import record
-
         name = self._names.get(request.key())
         if name is None:
             raise KeyError(
                 f"{self.folder} keeps the runs {sorted(self._names.values())}; this request is "
                 f"none of them: {request}"
             )
-        return record(
-            request.env_id,
-            request.driver,
-            self.folder / f"{name}.run",
-            n_steps=request.n_steps,
-            seed=request.seed,
-            env_kwargs=request.record_kwargs(),
-            progress=self.progress,
-        )
+        return _record(request, self.folder / f"{name}.run", self.progress)
+
+
+def _record(request: RunRequest, path: Path, progress: bool, overwrite: bool = False) -> Any:
+    """:func:`~sfa_gym.recording.recorder.record` the run of ``request`` into ``path``."""
+    from sfa_gym.recording.recorder import record
+
+    return record(
+        request.env_id,
+        request.driver,
+        path,
+        n_steps=request.n_steps,
+        seed=request.seed,
+        env_kwargs=request.record_kwargs(),
+        overwrite=overwrite,
+        progress=progress,
+    )

@@ -3,7 +3,7 @@
 :func:`record` checks everything it can before it writes anything (the output path, the counts,
 the env's spaces and attributes, the driver's arguments by planning its drive, the header as
 strict JSON), so a refused call leaves no directory behind that would block the corrected one;
-the run directory and its header appear with the first chunk. An interruption by Ctrl-C
+the run directory and its header appear with the first block of samples. An interruption by Ctrl-C
 (``KeyboardInterrupt``) or by SIGTERM (turned into ``SystemExit(143)`` while recording, when no
 other SIGTERM handler is installed) writes the buffered samples first, so that the run resumes
 from the last one.
@@ -29,7 +29,7 @@ from tqdm.auto import tqdm
 
 import sfa_gym
 from sfa_gym._checks import check_positive_int
-from sfa_gym.files import strict_json
+from sfa_gym.files import strict_json, write_atomic, write_json_atomic
 from sfa_gym.recording.drivers import Driver, GridPositions, env_attribute
 from sfa_gym.recording.runfile import (
     _ARRAYS,
@@ -39,9 +39,8 @@ from sfa_gym.recording.runfile import (
     SUFFIX,
     VERSION,
     Run,
+    _append_panoramas,
     _read_header,
-    _write_chunk,
-    _write_header,
     load_run,
 )
 
@@ -118,7 +117,7 @@ def _pose_of(info: Mapping[str, Any]) -> NDArray[np.float64]:
 
 POSE_TOLERANCE = 1e-6
 """The largest difference, metres or radians, between a stored pose and the same sample made
-again (replayed to resume, or checked by :mod:`sfa_gym.recording.audit`)."""
+again (replayed to resume)."""
 
 
 def pose_difference(found: Sequence[float], stored: Sequence[float]) -> float:
@@ -134,9 +133,9 @@ def _pose_seed(seed: int, index: int) -> int:
 
 
 class _Writer:
-    """Buffers samples and writes them as chunks, rewriting the header after each.
+    """Buffers samples and appends them to the run's files block by block, the header last.
 
-    The directory and the header are created with the first chunk (or at :meth:`finish`), so
+    The directory and the files are created with the first block (or at :meth:`finish`), so
     nothing is written before there is something to keep.
     """
 
@@ -144,18 +143,22 @@ class _Writer:
         self,
         directory: Path,
         header: dict[str, Any],
+        stored: Run | None,
         chunk_size: int,
-        compress: bool,
         on_chunk: Callable[[int], None] | None,
     ) -> None:
         self.directory = directory
         self.header = header
         self.chunk_size = chunk_size
-        self.compress = compress
         self.on_chunk = on_chunk
         # one tuple per sample, appended in one step: an interruption (Ctrl-C, SIGTERM) at any
         # point leaves whole samples to flush
         self.samples: list[tuple[NDArray[np.uint8], NDArray[np.float64], float, Any]] = []
+        # the small arrays so far, rewritten whole after each block
+        self.small = {
+            name: np.empty((0, *tail), dtype) if stored is None else getattr(stored, name)
+            for name, (dtype, tail) in list(_ARRAYS.items())[1:]
+        }
 
     def add(self, obs: Any, pose: NDArray[np.float64], time: float, action: Any) -> None:
         sample = (
@@ -173,16 +176,17 @@ class _Writer:
         if n == 0:
             return
         columns = zip(*self.samples[:n], strict=True)
-        arrays = {
-            name: np.asarray(column, dtype=dtype)
-            for (name, (dtype, _)), column in zip(_ARRAYS.items(), columns, strict=True)
-        }
+        panoramas, *small = (
+            np.asarray(column, dtype=dtype)
+            for (dtype, _), column in zip(_ARRAYS.values(), columns, strict=True)
+        )
         self.directory.mkdir(parents=True, exist_ok=True)
-        name = f"chunk-{len(self.header['chunks']):05d}.npz"
-        digest = _write_chunk(self.directory / name, arrays, self.compress)
-        self.header["chunks"].append({"file": name, "n": n, "sha256": digest})
+        _append_panoramas(self.directory / "panoramas.npy", panoramas, self.header["n"])
+        for name, new in zip(list(self.small), small, strict=True):
+            array = self.small[name] = np.concatenate([self.small[name], new])
+            write_atomic(self.directory / f"{name}.npy", lambda file, a=array: np.save(file, a))
         self.header["n"] += n
-        _write_header(self.directory, self.header)
+        write_json_atomic(self.directory / HEADER, self.header)
         del self.samples[:n]
         if self.on_chunk is not None:
             self.on_chunk(self.header["n"])
@@ -192,7 +196,7 @@ class _Writer:
         self.header["complete"] = True
         self.header["end_reason"] = end_reason
         self.directory.mkdir(parents=True, exist_ok=True)
-        _write_header(self.directory, self.header)
+        write_json_atomic(self.directory / HEADER, self.header)
 
 
 def _check_resumable(directory: Path, wanted: dict[str, Any]) -> dict[str, Any]:
@@ -211,18 +215,15 @@ def _check_resumable(directory: Path, wanted: dict[str, Any]) -> dict[str, Any]:
     return header
 
 
-def _clear(directory: Path) -> None:
-    """Remove the files of a run (header, chunks, temporaries), nothing else."""
+_FILES = (HEADER, *(f"{name}.npy" for name in _ARRAYS))
+
+
+def _clear(directory: Path, temporaries_only: bool = False) -> None:
+    """Remove the files of a run (header, arrays, temporaries), nothing else."""
     for file in directory.iterdir():
         name = file.name
-        if name == HEADER or (name.startswith("chunk-") and name.endswith(".npz")):
-            file.unlink()
-    _remove_temporaries(directory)
-
-
-def _remove_temporaries(directory: Path) -> None:
-    for file in directory.glob(".*.tmp"):
-        if file.name.startswith((".chunk-", f".{HEADER}.")):
+        temporary = name.startswith(tuple(f".{f}." for f in _FILES)) and name.endswith(".tmp")
+        if temporary or (name in _FILES and not temporaries_only):
             file.unlink()
 
 
@@ -303,7 +304,6 @@ def record(
     n_steps: int | None = None,
     seed: int = 0,
     chunk_size: int = 500,
-    compress: bool = False,
     env_kwargs: Mapping[str, Any] | None = None,
     overwrite: bool = False,
     progress: bool = True,
@@ -319,9 +319,9 @@ def record(
     ``n_steps`` poses, or all), each with its own seed derived from ``seed``.
 
     Every argument is checked before anything is written (see the module docstring). If
-    ``out_dir`` already holds an incomplete run with the same settings, its chunks are checked
-    against their checksums and the recording resumes (see :mod:`.runfile`); a complete one is
-    returned as it is. Ctrl-C and SIGTERM keep the samples recorded so far.
+    ``out_dir`` already holds an incomplete run with the same settings, the recording resumes
+    (see :mod:`.runfile`); a complete one is returned as it is. Ctrl-C and SIGTERM keep the
+    samples recorded so far.
 
     Args:
         env: a registered env id (made with ``gym.make(env, **env_kwargs)`` and closed at the
@@ -333,12 +333,12 @@ def record(
         n_steps: number of samples to store (the reset counts as one); ``None``: until the
             driver is done (required for open-ended drivers) or all poses are visited.
         seed: seed of the env resets and of the driver, an int >= 0.
-        chunk_size: samples per chunk file.
-        compress: write chunks with ``np.savez_compressed`` (smaller, slower, not mappable).
+        chunk_size: samples buffered between writes to the files (an interruption keeps the
+            samples written).
         env_kwargs: keyword arguments for ``gym.make`` when ``env`` is an id.
         overwrite: delete an existing run in ``out_dir`` instead of resuming it.
         progress: show a tqdm progress bar.
-        on_chunk: called with the number of stored samples after each chunk is written.
+        on_chunk: called with the number of stored samples after each block is written.
 
     Returns:
         The recorded run, as :func:`~sfa_gym.recording.runfile.load_run` returns it.
@@ -347,7 +347,7 @@ def record(
         ValueError: a bad argument, env or driver setting (nothing is written then), or a
             non-finite number in the header.
         RunMismatchError: ``out_dir`` holds a run recorded with other settings.
-        RunFormatError: resuming found a damaged chunk.
+        RunFormatError: resuming found a damaged run.
         ReplayMismatchError: resuming did not reproduce the stored actions or poses.
         SystemExit: SIGTERM arrived (after the samples so far were written).
     """
@@ -390,22 +390,20 @@ def record(
             header = _check_resumable(directory, wanted)
             if header["complete"]:
                 return load_run(directory)
-            _remove_temporaries(directory)
+            _clear(directory, temporaries_only=True)
             stored = load_run(directory)
-            stored.verify()
         else:
             header = {
                 **wanted,
                 "sfa_gym_version": sfa_gym.__version__,
                 "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-                "chunks": [],
                 "n": 0,
                 "complete": False,
                 "end_reason": None,
             }
             stored = None
         header["sfa_gym_version"] = sfa_gym.__version__
-        writer = _Writer(directory, header, chunk_size, compress, on_chunk)
+        writer = _Writer(directory, header, stored, chunk_size, on_chunk)
         with _sigterm_raises():
             try:
                 if isinstance(driver, GridPositions):
