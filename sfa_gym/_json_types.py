@@ -1,5 +1,6 @@
-"""JSON-type values (what a command line's ``NAME=VALUE`` or a result file gives) checked
-against a dataclass's field types, with errors that name the field, the value and the type."""
+"""Settings dataclasses from JSON (a world spec, a track's ``params``, a plug-in's ``Args``):
+every value checked against its field's type hint, with errors that name the key path, the
+value and what was expected."""
 
 from __future__ import annotations
 
@@ -11,35 +12,66 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal, Union, get_args, get_origin, get_type_hints
 
-__all__ = ["dataclass_from_json", "from_json"]
+__all__ = ["dataclass_from_json"]
 
 
-def dataclass_from_json(cls: type, values: Mapping[str, Any], where: str) -> Any:
-    """``cls(**values)`` after checking every value against its field's type (see
-    :func:`from_json`); ``where`` (e.g. the file that defines ``cls``) starts every message.
+def dataclass_from_json(
+    cls: type, values: Any, where: str = "", *, noun: str = "argument", base: Any = None
+) -> Any:
+    """``cls(**values)`` after checking every value against its field's type hint.
 
+    Nested dataclasses are built from JSON objects, lists become tuples (of the given length
+    for ``tuple[X, Y]``), ints become floats where a float is wanted, a ``Literal`` takes one of
+    its values, a union the first of its types the value fits; other hints pass unchanged.
+
+    Args:
+        where: what ``values`` come from (a file), starting every message.
+        noun: what a key is called in messages ("key", "setting").
+        base: an instance whose fields the given values replace (``dataclasses.replace``); an
+            object given for a field that holds a dataclass replaces that one's fields.
     Raises:
-        ValueError: a key that is not a field of ``cls``, a value of the wrong type, or a value
-            ``cls`` refuses; the message names the field and the value.
+        ValueError: an unknown key, a value of the wrong type, or a value ``cls`` refuses; the
+            message names the key's path (``arena.size[0]``) and the value.
         TypeError: the field types of ``cls`` do not resolve.
     """
+    return _dataclass(cls, values, (where, noun), "", base)
+
+
+def _dataclass(cls: type, values: Any, at: tuple[str, str], path: str, base: Any) -> Any:
+    where, noun = at
+    if not isinstance(values, Mapping):
+        raise ValueError(f"{_label(at, path)} must be an object of {cls.__name__}, got {values!r}")
     names = [f.name for f in dataclasses.fields(cls)]
     unknown = sorted(set(values) - set(names))
     if unknown:
+        key = f"{path}.{unknown[0]}" if path else unknown[0]
         raise ValueError(
-            f"{where}: unknown argument {unknown[0]!r}; the fields of {cls.__name__} are {names}"
+            f"{where}: " * bool(where)
+            + f"unknown {noun} {key!r}; the fields of {cls.__name__} are {names}"
         )
     try:
         hints = get_type_hints(cls)
     except Exception as error:  # an annotation that does not resolve in its module
         raise TypeError(f"{where}: cannot read the types of {cls.__name__}: {error}") from None
-    checked = {
-        k: from_json(f"{where}: argument {k}", v, hints.get(k, Any)) for k, v in values.items()
-    }
+    checked = {}
+    for key, value in values.items():
+        inner = getattr(base, key, None)
+        sub = f"{path}.{key}" if path else key
+        if dataclasses.is_dataclass(inner) and isinstance(value, Mapping):
+            checked[key] = _dataclass(type(inner), value, at, sub, inner)
+        else:
+            checked[key] = _convert(value, hints.get(key, Any), at, sub)
     try:
-        return cls(**checked)
+        return cls(**checked) if base is None else dataclasses.replace(base, **checked)
     except (TypeError, ValueError) as error:
-        raise ValueError(f"{where}: bad arguments {checked!r}: {error}") from None
+        raise ValueError(": ".join(filter(None, (where, path, str(error))))) from None
+
+
+def _label(at: tuple[str, str], path: str) -> str:
+    where, noun = at
+    if not path:
+        return where or f"the {noun}s"
+    return f"{where}: " * bool(where) + f"{noun} {path}"
 
 
 def _type_name(hint: Any) -> str:
@@ -48,23 +80,26 @@ def _type_name(hint: Any) -> str:
     return str(hint).replace("typing.", "")
 
 
-def from_json(where: str, value: Any, hint: Any) -> Any:
-    """``value`` as the type ``hint`` wants it (int -> float, list -> tuple), or a ValueError
-    naming ``where``, the value and the type. Types not listed here pass unchanged:
-    ``Args`` itself checks them, if it does."""
+def _convert(value: Any, hint: Any, at: tuple[str, str], path: str) -> Any:
+    """``value`` as the type ``hint`` wants it, or a ValueError naming ``path``."""
     origin = get_origin(hint)
-    wrong = ValueError(f"{where} must be {_type_name(hint)}, got {value!r}")
+    wrong = ValueError(f"{_label(at, path)} must be {_type_name(hint)}, got {value!r}")
     if hint is Any:
         return value
+    if dataclasses.is_dataclass(hint):
+        return _dataclass(hint, value, at, path, None)  # type: ignore[arg-type]
     if origin is Literal:
         choices = get_args(hint)
         if any(value == c and type(value) is type(c) for c in choices):
             return value
-        raise ValueError(f"{where} must be one of {list(choices)}, got {value!r}")
+        raise ValueError(f"{_label(at, path)} must be one of {list(choices)}, got {value!r}")
     if origin in (Union, types.UnionType):
-        for option in get_args(hint):
+        options = [o for o in get_args(hint) if value is None or o is not type(None)]
+        if len(options) == 1:  # its own message, e.g. naming a nested key
+            return _convert(value, options[0], at, path)
+        for option in options:
             try:
-                return from_json(where, value, option)
+                return _convert(value, option, at, path)
             except ValueError:
                 continue
         raise wrong
@@ -94,10 +129,10 @@ def from_json(where: str, value: Any, hint: Any) -> Any:
         items = get_args(hint)
         if origin is tuple and items and items[-1] is not Ellipsis:
             if len(value) != len(items):
-                raise ValueError(f"{where} must have {len(items)} items, got {value!r}")
+                raise ValueError(f"{_label(at, path)} must have {len(items)} items, got {value!r}")
             pairs = enumerate(zip(value, items, strict=True))
-            return tuple(from_json(f"{where}[{i}]", v, h) for i, (v, h) in pairs)
+            return tuple(_convert(v, h, at, f"{path}[{i}]") for i, (v, h) in pairs)
         item = items[0] if items else Any
-        out = [from_json(f"{where}[{i}]", v, item) for i, v in enumerate(value)]
+        out = [_convert(v, item, at, f"{path}[{i}]") for i, v in enumerate(value)]
         return tuple(out) if (origin or hint) is tuple else out
     return value

@@ -212,9 +212,9 @@ def test_bad_reset_time_and_bad_specs_are_refused_by_name():
         DynamicsSpec(overcast=2.0)
     with pytest.raises(ValueError, match="mover kind must be one of"):
         MoverSpec(kind="horse")
-    with pytest.raises(ValueError, match=r"dynamics: unknown keys \['weather'\]"):
+    with pytest.raises(ValueError, match=r"unknown key 'dynamics\.weather'"):
         world_spec_from_dict({"name": "w", "dynamics": {"weather": "rain"}})
-    with pytest.raises(ValueError, match="clouds must be true or false"):
+    with pytest.raises(ValueError, match="dynamics.clouds must be bool"):
         world_spec_from_dict({"name": "w", "dynamics": {"clouds": "yes"}})
 
 

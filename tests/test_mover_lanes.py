@@ -197,7 +197,7 @@ def test_bad_road_values_are_refused_by_name():
         RoadSpec(car_lanes=0)
     with pytest.raises(ValueError, match=r"a car keeps to the road's lanes.*offset"):
         MoverSpec("car", offset=(3.0, 4.0))
-    with pytest.raises(ValueError, match=r"dynamics\.road: unknown keys \['lanes'\]"):
+    with pytest.raises(ValueError, match=r"unknown key 'dynamics\.road\.lanes'"):
         world_spec_from_dict({"name": "w", "dynamics": {"road": {"lanes": 3}}})
 
 

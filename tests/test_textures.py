@@ -185,7 +185,7 @@ def test_textures_need_an_outdoor_world_and_valid_keys():
     with pytest.raises(ValueError, match="power of two"):
         world_spec_from_dict(data)
     data["textures"] = {"resolutoin": 64}
-    with pytest.raises(ValueError, match="unknown keys.*resolutoin"):
+    with pytest.raises(ValueError, match="unknown key.*resolutoin"):
         world_spec_from_dict(data)
     data["textures"] = {"resolution": 64}
     assert world_spec_from_dict(data).textures == TexturesSpec(resolution=64)

@@ -328,13 +328,13 @@ def test_bad_interior_walls_name_the_problem(spec_dict):
         world_spec_from_dict(walls(segments=[[1.0, 1.0, 1.0, 1.0]]))
     with pytest.raises(ValueError, match=r"segments\[0\] must be finite"):
         world_spec_from_dict(walls(segments=[[0.0, 0.0, float("nan"), 1.0]]))
-    with pytest.raises(ValueError, match=r"interior_walls\.segments\[0\] must have 4 entries"):
+    with pytest.raises(ValueError, match=r"interior_walls\.segments\[0\] must have 4 items"):
         world_spec_from_dict(walls(segments=[[0.0, 0.0, 1.0]]))
     with pytest.raises(ValueError, match="interior_walls thickness must be positive, got 0"):
         world_spec_from_dict(walls(thickness=0.0))
     with pytest.raises(ValueError, match="interior_walls height must be positive"):
         world_spec_from_dict(walls(height=-0.8))
-    with pytest.raises(ValueError, match=r"interior_walls: unknown keys \['width'\]"):
+    with pytest.raises(ValueError, match=r"unknown key 'interior_walls\.width'"):
         world_spec_from_dict(walls(width=0.1))
 
 

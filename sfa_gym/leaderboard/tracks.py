@@ -222,15 +222,17 @@ def protocol_module(evaluation: str) -> Any:
 def _protocol_config(evaluation: str, world: str, seed: int, params: Mapping[str, Any]) -> Any:
     """The checked ``Config`` of one size of a track: the protocol's defaults, the track's
     :data:`TRACK_SETTINGS` where the ``Config`` has them, the evaluation's
-    :data:`FIXED_SETTINGS`, then ``params`` (:func:`~sfa_gym.protocols.params.config_from_params`:
-    lists as tuples, objects as nested settings, ``validate()``)."""
-    from sfa_gym.protocols.params import config_from_params
+    :data:`FIXED_SETTINGS`, then ``params`` (:func:`~sfa_gym._json_types.dataclass_from_json`:
+    lists as tuples, objects as nested settings), checked by ``validate()``."""
+    from sfa_gym._json_types import dataclass_from_json
 
     config_type = protocol_module(evaluation).Config
     names = {f.name for f in dataclasses.fields(config_type)}
     track = {name: value for name, value in (("world", world), ("seed", seed)) if name in names}
     default = dataclasses.replace(config_type(), **track, **FIXED_SETTINGS.get(evaluation, {}))
-    return config_from_params(default, params)
+    config = dataclass_from_json(config_type, params, noun="setting", base=default)
+    config.validate()
+    return config
 
 
 def _check_protocol_params(

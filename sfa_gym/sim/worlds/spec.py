@@ -24,8 +24,8 @@ Shadows are off (``shadowsize=0``, ``castshadow="false"``): they make software r
 about 40 times slower.
 
 This module does not import ``mujoco``: it produces text, which the env compiles. It is
-longer than most because every block of a world spec's JSON has its validated dataclass here,
-next to the one converter that reads them all.
+longer than most because every block of a world spec's JSON has its validated dataclass here
+(read by :func:`sfa_gym._json_types.dataclass_from_json`).
 """
 
 from __future__ import annotations
@@ -34,14 +34,13 @@ import colorsys
 import json
 import math
 import os
-import types
-import typing
-from dataclasses import dataclass, fields, is_dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from sfa_gym._json_types import dataclass_from_json
 from sfa_gym.sim.worlds.data import envs_dir
 from sfa_gym.sim.worlds.dynamics import DynamicsSpec
 from sfa_gym.sim.worlds.textures import TexturesSpec
@@ -511,62 +510,9 @@ class WorldSpec:
                 )
 
 
-def _convert(value: Any, hint: Any, where: str) -> Any:
-    """Turn parsed JSON into the type ``hint`` (dataclass, tuple, bool, float, int, str)."""
-    origin = typing.get_origin(hint)
-    if is_dataclass(hint):
-        return _from_dict(hint, value, where)
-    if origin in (typing.Union, types.UnionType):
-        return _convert(value, next(a for a in typing.get_args(hint) if a is not type(None)), where)
-    if origin is tuple:
-        if not isinstance(value, list | tuple):
-            raise ValueError(f"{where} must be a list, got {value!r}")
-        args = typing.get_args(hint)
-        if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_convert(v, args[0], f"{where}[{i}]") for i, v in enumerate(value))
-        if len(value) != len(args):
-            raise ValueError(f"{where} must have {len(args)} entries, got {value!r}")
-        return tuple(
-            _convert(v, a, f"{where}[{i}]")
-            for i, (v, a) in enumerate(zip(value, args, strict=True))
-        )
-    if hint is bool:
-        if not isinstance(value, bool):
-            raise ValueError(f"{where} must be true or false, got {value!r}")
-        return value
-    if hint is float:
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ValueError(f"{where} must be a number, got {value!r}")
-        return float(value)
-    if hint is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ValueError(f"{where} must be an integer, got {value!r}")
-        return value
-    if hint is str:
-        if not isinstance(value, str):
-            raise ValueError(f"{where} must be a string, got {value!r}")
-        return value
-    raise TypeError(f"unsupported field type {hint!r} at {where}")
-
-
-def _from_dict(cls: type, data: Any, where: str) -> Any:
-    if not isinstance(data, dict):
-        raise ValueError(f"{where} must be a JSON object, got {data!r}")
-    hints = typing.get_type_hints(cls)
-    names = {f.name for f in fields(cls)}
-    unknown = sorted(set(data) - names)
-    if unknown:
-        raise ValueError(f"{where}: unknown keys {unknown}; expected some of {sorted(names)}")
-    kwargs = {k: _convert(v, hints[k], f"{where}.{k}") for k, v in data.items()}
-    try:
-        return cls(**kwargs)
-    except TypeError as e:
-        raise ValueError(f"{where}: {e}") from e
-
-
 def world_spec_from_dict(data: dict[str, Any]) -> WorldSpec:
     """Build a validated :class:`WorldSpec` from parsed JSON; errors name the bad key."""
-    return _from_dict(WorldSpec, data, "world")
+    return dataclass_from_json(WorldSpec, data, "world", noun="key")
 
 
 def available_worlds() -> list[str]:
