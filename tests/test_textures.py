@@ -181,12 +181,10 @@ def test_textures_need_an_outdoor_world_and_valid_keys():
     with pytest.raises(ValueError, match="textures need an outdoor block"):
         dataclasses.replace(load_world_spec("paper_sim"), textures=TexturesSpec())
     data = json.loads((envs_dir() / "paper_outdoor.json").read_text())
-    data["textures"] = {"resolution": 48}
     with pytest.raises(ValueError, match="power of two"):
-        world_spec_from_dict(data)
-    data["textures"] = {"resolutoin": 64}
+        world_spec_from_dict({**data, "textures": {"resolution": 48}})
     with pytest.raises(ValueError, match="unknown key.*resolutoin"):
-        world_spec_from_dict(data)
+        world_spec_from_dict({**data, "textures": {"resolutoin": 64}})
     data["textures"] = {"resolution": 64}
     assert world_spec_from_dict(data).textures == TexturesSpec(resolution=64)
 
