@@ -64,7 +64,8 @@ def _dataclass(cls: type, values: Any, at: tuple[str, str], path: str, base: Any
     try:
         return cls(**checked) if base is None else dataclasses.replace(base, **checked)
     except (TypeError, ValueError) as error:
-        raise ValueError(": ".join(filter(None, (where, path, str(error))))) from None
+        given = f"bad {noun}s {checked!r}"
+        raise ValueError(": ".join(filter(None, (where, path, given, str(error))))) from None
 
 
 def _label(at: tuple[str, str], path: str) -> str:
