@@ -59,15 +59,14 @@ def test_without_dynamics_a_standing_rover_sees_the_same_pixels():
 def test_each_effect_alone_changes_what_a_standing_rover_sees():
     spec = dataclasses.replace(load_world_spec("paper_outdoor").dynamics, time_scale=1200.0)
     for effect in ("clock", "clouds", "movers"):
-        switches = {**QUIET, effect: True}
-        env = _outdoor(dynamics=spec, **switches)
+        env = _outdoor(dynamics=dataclasses.replace(spec, **{**QUIET, effect: True}))
         frames, _ = _standing_frames(env, 3)
         env.close()
         changes = [
             np.abs(a.astype(int) - b).mean() for a, b in zip(frames, frames[1:], strict=False)
         ]
         assert max(changes) > 0.05, (effect, changes)
-    env = _outdoor(dynamics=spec, **QUIET)
+    env = _outdoor(dynamics=dataclasses.replace(spec, **QUIET))
     frames, _ = _standing_frames(env, 2)
     env.close()
     np.testing.assert_array_equal(frames[-1], frames[0])
@@ -85,18 +84,18 @@ def test_same_seed_same_pixels_with_every_effect_on():
 
 
 def test_sensor_noise_and_exposure_switch_independently():
-    env = _outdoor(dynamics=True, **QUIET, sensor=True, sensor_noise=False)
+    env = _outdoor(dynamics=QUIET, sensor={"noise": False})
     frames, _ = _standing_frames(env, 2)
     env.close()
     np.testing.assert_array_equal(frames[1], frames[2])  # exposure settled, no noise
-    env = _outdoor(dynamics=True, **QUIET, sensor=True, auto_exposure=False)
+    env = _outdoor(dynamics=QUIET, sensor={"auto_exposure": False})
     frames, _ = _standing_frames(env, 1)
     env.close()
     assert np.abs(frames[0].astype(int) - frames[1]).mean() > 0.5  # fresh noise every frame
 
 
 def test_movers_off_sends_every_mover_away():
-    env = _outdoor(dynamics=True, movers=False)
+    env = _outdoor(dynamics={"movers": False})
     env.reset(seed=0, options=CENTRE)
     present = env._dynamics.movers_present(env.data)
     env.close()
@@ -112,7 +111,7 @@ def test_movers_off_sends_every_mover_away():
 
 
 def test_the_clock_runs_on_across_unseeded_resets_and_reset_can_set_it():
-    env = _outdoor(dynamics=True, start_hour=9.5, **{**QUIET, "clock": True})
+    env = _outdoor(dynamics={**QUIET, "clock": True, "start_hour": 9.5})
     _, info = env.reset(seed=0, options=CENTRE)
     assert info["clock"] == pytest.approx(9.5)
     for _ in range(3):
@@ -127,9 +126,7 @@ def test_the_clock_runs_on_across_unseeded_resets_and_reset_can_set_it():
     assert info["clock"] == pytest.approx(16.25)
     env.close()
     # the clock switched off holds the sun; the time of day still runs for clouds and movers
-    env = _outdoor(
-        dynamics=dataclasses.replace(DynamicsSpec(), time_scale=3600.0), clock=False, clouds=False
-    )
+    env = _outdoor(dynamics=DynamicsSpec(time_scale=3600.0, clock=False, clouds=False))
     env.reset(seed=0, options=CENTRE)
     sun = env.model.light("sun")
     before = sun.dir.copy(), sun.diffuse.copy()
@@ -184,13 +181,12 @@ def test_no_dynamics_means_the_env_of_before():
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"dynamics": True, "clock": "yes"}, "clock must be True, False or None, got 'yes'"),
-        ({"dynamics": True, "start_hour": 25.0}, "start_hour must lie in [0, 24)"),
-        ({"dynamics": True, "start_hour": "noon"}, "start_hour must be a number"),
-        ({"dynamics": False, "clouds": True}, "['clouds'] need dynamics"),
-        ({"dynamics": "on"}, "dynamics must be None, a bool or a DynamicsSpec"),
-        ({"sensor": False, "sensor_noise": True}, "['noise'] need a sensor"),
-        ({"sensor": True, "auto_exposure": 1}, "auto_exposure must be True, False or None"),
+        ({"dynamics": {"clock": "yes"}}, "dynamics: field clock must be bool, got 'yes'"),
+        ({"dynamics": {"start_hour": 25.0}}, "start_hour must lie in [0, 24)"),
+        ({"dynamics": {"start_hour": "noon"}}, "field start_hour must be float, got 'noon'"),
+        ({"dynamics": {"colck": False}}, "unknown field 'colck'; the fields of DynamicsSpec"),
+        ({"dynamics": "on"}, "dynamics must be None, a bool, a DynamicsSpec or an object"),
+        ({"sensor": {"auto_exposure": 1}}, "sensor: field auto_exposure must be bool, got 1"),
         ({"camera": "fisheye"}, "camera must be one of"),
         ({"mirror": "paper_outdoor"}, "is for camera='mirror'"),
         ({"camera": "mirror", "mirror": "dome"}, "unknown mirror preset 'dome'"),

@@ -66,9 +66,8 @@ def _frame(visibility_m):
         camera="cylindrical",
         mirror=None,
         panorama="paper_sim",
-        dynamics=dataclasses.replace(declared, visibility_m=visibility_m),
+        dynamics=dataclasses.replace(declared, visibility_m=visibility_m, **QUIET),
         sensor=SensorSpec(auto_exposure=False, noise=False),
-        **QUIET,
     )
     try:
         return env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})[0].astype(float)
@@ -92,7 +91,8 @@ def test_the_fog_condition_is_an_overcast_day_in_fog():
     config = Config(conditions=("after", "fog"), fog_visibility_m=80.0)
     assert config.test_conditions == ("after", "fog")
     declared = load_world_spec("paper_outdoor").dynamics
-    expected = dataclasses.replace(declared, overcast=1.0, visibility_m=80.0)
+    hour = config.env_kwargs("fog", 0)["dynamics"].start_hour
+    expected = dataclasses.replace(declared, overcast=1.0, visibility_m=80.0, start_hour=hour)
     assert config.env_kwargs("fog", 0)["dynamics"] == expected
     # the other conditions keep clear air
-    assert "dynamics" not in config.env_kwargs("after", 0)
+    assert config.env_kwargs("after", 0)["dynamics"].visibility_m is None

@@ -14,7 +14,7 @@ from sfa_gym.sim import gl
 from sfa_gym.sim.worlds import build_world, load_world_spec
 from sfa_gym.sim.worlds.dynamics import DynamicsSpec
 from sfa_gym.sim.worlds.ground import GroundLook, grass_greenness, ground_look_for
-from sfa_gym.sim.worlds.texturing import with_textures
+from sfa_gym.sim.worlds.textures import TexturesSpec
 
 gl.configure()
 
@@ -52,7 +52,7 @@ def test_a_dormant_lawn_keeps_its_luminance_and_turns_from_green_to_straw():
 
 @pytest.mark.parametrize("textured", [False, True])
 def test_dry_ground_and_a_summer_lawn_build_the_world_as_drawn(spec, textured):
-    spec = with_textures(spec, textured)
+    spec = dataclasses.replace(spec, textures=TexturesSpec() if textured else None)
     built = build_world(spec, 300).mjcf
     summer = dataclasses.replace(spec.dynamics, day_of_year=196, grass_seasons=True)
     assert ground_look_for(summer) is None
@@ -66,7 +66,7 @@ def _geoms(mjcf: str) -> list[str]:
 @pytest.mark.parametrize("textured", [False, True])
 @pytest.mark.parametrize("ground", ["wet", "snow"])
 def test_wet_ground_and_snow_change_only_the_ground_surfaces_materials(spec, textured, ground):
-    spec = with_textures(spec, textured)
+    spec = dataclasses.replace(spec, textures=TexturesSpec() if textured else None)
     built = build_world(spec, 300)
     changed = build_world(spec, 300, dynamics=dataclasses.replace(spec.dynamics, ground=ground))
     assert changed.layout == built.layout
@@ -92,7 +92,7 @@ def test_wet_ground_and_snow_change_only_the_ground_surfaces_materials(spec, tex
 
 
 def test_the_same_day_gives_the_same_snow(spec):
-    spec = with_textures(spec, True)
+    spec = dataclasses.replace(spec, textures=TexturesSpec())
     snow = dataclasses.replace(spec.dynamics, ground="snow")
     a, b = build_world(spec, 301, dynamics=snow), build_world(spec, 301, dynamics=snow)
     assert a.mjcf == b.mjcf and a.assets == b.assets

@@ -111,7 +111,7 @@ def test_bad_outdoor_track_is_refused_naming_the_value(change, message):
 
 
 def _outdoor_request(driver=None, **env_kwargs) -> RunRequest:
-    kwargs = {"start_hour": 10.0, "control_dt": 0.8, **env_kwargs}
+    kwargs = {"dynamics": {"start_hour": 10.0}, "control_dt": 0.8, **env_kwargs}
     return RunRequest(
         world="paper_outdoor",
         world_seed=300,
@@ -136,8 +136,8 @@ def test_outdoor_cache_key_changes_with_every_env_kwarg_and_nothing_else():
         "rover": {"rover": "default"},
         "dynamics": {"dynamics": dataclasses.replace(declared, overcast=1.0)},
         "dynamics off": {"dynamics": False},
-        "movers": {"movers": False},
-        "start_hour": {"start_hour": 14.0},
+        "movers": {"dynamics": {"start_hour": 10.0, "movers": False}},
+        "start_hour": {"dynamics": {"start_hour": 14.0}},
         "sensor": {"sensor": False},
         "control period": {"control_dt": 0.5},
     }
@@ -150,15 +150,14 @@ def test_outdoor_cache_key_changes_with_every_env_kwarg_and_nothing_else():
     assert _outdoor_request(driver=other_path).key() != base.key()
     assert dataclasses.replace(base, n_steps=50).key() != base.key()
 
-    # not otherwise: the registered defaults passed explicitly (the world's own dynamics among
-    # them) and the kwargs in another order name the same pixels
+    # not otherwise: the registered defaults passed explicitly and the kwargs in another order
+    # name the same pixels
     same = _outdoor_request(camera="mirror", mirror="paper_outdoor", rover="outdoor", sensor=True)
     assert same.key() == base.key()
     reordered = dataclasses.replace(base, env_kwargs=dict(reversed(list(base.env_kwargs.items()))))
     assert reordered.key() == base.key()
-    assert _outdoor_request(dynamics=True).key() == base.key()
     content = base.key_content()
-    assert content["env_kwargs"] == {"control_dt": 0.8, "start_hour": 10.0}
+    assert content["env_kwargs"] == {"control_dt": 0.8, "dynamics": {"start_hour": 10.0}}
 
 
 def test_runs_without_env_kwargs_keep_their_keys():
@@ -177,7 +176,7 @@ def test_runs_without_env_kwargs_keep_their_keys():
     [
         ({"colour": "red"}, ValueError, "env kwarg 'colour' is not a keyword argument"),
         ({"world_seed": 3}, ValueError, "'world_seed' is a field of the RunRequest"),
-        ({"start_hour": math.nan}, TypeError, "start_hour = nan"),
+        ({"dynamics": {"start_hour": math.nan}}, TypeError, "dynamics.start_hour = nan"),
         ({"sensor": object()}, TypeError, "env kwarg sensor = <object"),
     ],
 )

@@ -37,12 +37,14 @@ def test_several_later_offsets_and_other_days_give_one_condition_each():
         "other_day+3",
     )
     for name, hours in (("later+2h", 2.0), ("later+6h", 6.0)):
-        assert config.env_kwargs(name, 0)["start_hour"] == pytest.approx(HOUR + hours)
+        assert config.env_kwargs(name, 0)["dynamics"].start_hour == pytest.approx(HOUR + hours)
     declared = load_world_spec("paper_outdoor").dynamics
     for name, day in (("other_day+1", 1), ("other_day+3", 3)):
-        kwargs = config.env_kwargs(name, 0)
-        assert kwargs["dynamics"] == dataclasses.replace(declared, day=declared.day + day)
-        assert kwargs["start_hour"] == pytest.approx(HOUR)
+        dynamics = config.env_kwargs(name, 0)["dynamics"]
+        assert dynamics == dataclasses.replace(
+            declared, day=declared.day + day, start_hour=dynamics.start_hour
+        )
+        assert dynamics.start_hour == pytest.approx(HOUR)
     config = dataclasses.replace(config, panorama=(40, 350))
     runs = requests(config, 0)
     assert list(runs) == ["drive", *config.test_conditions[1:]]
@@ -54,10 +56,6 @@ def test_several_later_offsets_and_other_days_give_one_condition_each():
 def test_a_single_offset_keeps_the_old_names_and_runs():
     old = OutdoorExperiment(conditions=ALL, start_hour=9.0, later_hours=3.0)
     assert old.test_conditions == ALL
-    # without a date or day the env keeps its own dynamics: the env kwargs (and so the render
-    # cache keys) of before
-    for condition in ("after", "later", "no_movers"):
-        assert "dynamics" not in old.env_kwargs(condition, 0)
     # one offset in a tuple names it; the run is the same as the single value's
     one = dataclasses.replace(old, later_hours=(3.0,), other_days=(1,))
     assert one.test_conditions == ("after", "later+3h", "overcast", "no_movers", "other_day+1")
@@ -74,13 +72,19 @@ def test_the_date_place_and_day_reach_every_run():
     declared = load_world_spec("paper_outdoor").dynamics
     dated = dataclasses.replace(declared, day_of_year=15, latitude_deg=50.0, day=2)
     assert config.world_dynamics() == dated
-    for condition in ("after", "later", "no_movers"):
-        assert config.env_kwargs(condition, 0)["dynamics"] == dated
-    assert config.env_kwargs("overcast", 0)["dynamics"] == dataclasses.replace(dated, overcast=1)
-    assert config.env_kwargs("other_day", 0)["dynamics"] == dataclasses.replace(dated, day=3)
+    for condition, change in (
+        ("after", {}),
+        ("later", {}),
+        ("no_movers", {"movers": False}),
+        ("overcast", {"overcast": 1}),
+        ("other_day", {"day": 3}),
+    ):
+        dynamics = config.env_kwargs(condition, 0)["dynamics"]
+        assert dynamics == dataclasses.replace(dated, start_hour=dynamics.start_hour, **change)
     config = dataclasses.replace(config, panorama=(40, 350))
     runs = requests(config, 0)
-    assert runs["train_+1h"].env_kwargs["dynamics"] == dated
+    dynamics = runs["train_+1h"].env_kwargs["dynamics"]
+    assert dynamics == dataclasses.replace(dated, start_hour=config.start_hour + 1.0)
     plain = dataclasses.replace(config, day_of_year=None, latitude_deg=None, day=None)
     undated = requests(plain, 0)
     assert all(runs[n].key() != undated[n].key() for n in runs)

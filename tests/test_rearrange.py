@@ -124,8 +124,9 @@ def test_the_rearranged_condition_changes_the_parked_objects_of_the_rendered_wor
     assert kwargs["dynamics"].arrangement == 1
     still = {"clock": False, "movers": False, "clouds": False}
     panoramas, kinds = [], []
-    for dynamics in (dataclasses.replace(kwargs["dynamics"], arrangement=0), kwargs["dynamics"]):
-        env = gym.make(ENV_ID, **{**kwargs, "dynamics": dynamics, **still})
+    for arrangement in (0, 1):
+        dynamics = dataclasses.replace(kwargs["dynamics"], arrangement=arrangement, **still)
+        env = gym.make(ENV_ID, **{**kwargs, "dynamics": dynamics})
         obs, _ = env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})
         panoramas.append(obs.astype(np.int16))
         kinds.append({k for k, *_ in env.unwrapped.layout.landmarks})

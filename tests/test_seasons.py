@@ -14,7 +14,7 @@ from sfa_gym.sim import gl
 from sfa_gym.sim.worlds import build_world, load_world_spec
 from sfa_gym.sim.worlds.dynamics import DynamicsSpec
 from sfa_gym.sim.worlds.seasons import leaf_state
-from sfa_gym.sim.worlds.texturing import with_textures
+from sfa_gym.sim.worlds.textures import TexturesSpec
 
 gl.configure()
 
@@ -47,7 +47,7 @@ def test_the_calendar_of_leaf_cover_and_autumn_tint(day, latitude, cover, tint):
 
 @pytest.mark.parametrize("textured", [False, True])
 def test_a_summer_date_builds_the_world_as_drawn(spec, textured):
-    spec = with_textures(spec, textured)
+    spec = dataclasses.replace(spec, textures=TexturesSpec() if textured else None)
     built = build_world(spec, 300).mjcf
     assert build_world(spec, 300, dynamics=_dated(spec, 196)).mjcf == built
     # without seasons the date moves the sun only: the world is as drawn

@@ -70,7 +70,11 @@ def test_vignetting_follows_the_cos4_law_and_loses_its_share_at_the_rim():
 def test_an_env_with_vignetting_darkens_the_panorama_towards_the_rim():
     def frame(sensor):
         env = OmniRoverEnv(
-            world="paper_outdoor", camera="mirror", mirror="paper_outdoor", **QUIET, sensor=sensor
+            world="paper_outdoor",
+            camera="mirror",
+            mirror="paper_outdoor",
+            dynamics=QUIET,
+            sensor=sensor,
         )
         obs = env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})[0].astype(float)
         env.close()

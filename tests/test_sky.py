@@ -149,7 +149,11 @@ def test_a_cloudy_env_renders_clouds_above_the_horizon_only():
     kwargs = {"camera": "cylindrical", "mirror": None, "panorama": wide, "sensor": False}
     seen = {}
     for cover in (None, 0.7):
-        env = gym.make("sfa_gym/OmniRoverOutdoor-v0", movers=False, cloud_cover=cover, **kwargs)
+        env = gym.make(
+            "sfa_gym/OmniRoverOutdoor-v0",
+            dynamics={"movers": False, "cloud_cover": cover},
+            **kwargs,
+        )
         assert env.unwrapped.dynamics.cloud_cover == cover
         seen[cover] = env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})[0].astype(int)
         env.close()
@@ -158,13 +162,11 @@ def test_a_cloudy_env_renders_clouds_above_the_horizon_only():
     assert difference[35:].max() < 1.0  # below the horizon: the same ground
 
 
-def test_a_cloud_cover_needs_dynamics():
-    import gymnasium as gym
+def test_a_cloud_cover_on_a_world_without_dynamics_starts_from_the_defaults():
+    from sfa_gym.sim.env import resolve_effect
 
-    import sfa_gym  # noqa: F401
-
-    with pytest.raises(ValueError, match="cloud_cover"):
-        gym.make("sfa_gym/OmniRover-v0", cloud_cover=0.5)
+    chosen = resolve_effect("dynamics", {"cloud_cover": 0.5}, DynamicsSpec, declared=None)
+    assert chosen == DynamicsSpec(cloud_cover=0.5)
 
 
 def test_the_outdoor_protocol_draws_each_runs_clouds_for_its_hour():
@@ -184,7 +186,6 @@ def test_the_outdoor_protocol_draws_each_runs_clouds_for_its_hour():
         env.close()
     assert skies["later"].start_hour != skies["after"].start_hour
     assert skies["other_day"].day == skies["after"].day + 1
-    # without a cover the runs keep the env's own dynamics (and their cache keys)
-    assert "dynamics" not in Config().env_kwargs("after", 0)
+    assert Config().env_kwargs("after", 0)["dynamics"].cloud_cover is None
     with pytest.raises(ValueError, match="cloud_cover"):
         Config(cloud_cover=2.0).validate()

@@ -15,12 +15,12 @@ import pytest
 
 from sfa_gym.image_statistics import spectrum_slope
 from sfa_gym.sim.camera import PanoramaSpec
-from sfa_gym.sim.env import OmniRoverEnv
+from sfa_gym.sim.env import OmniRoverEnv, resolve_effect
 from sfa_gym.sim.worlds import available_worlds, build_world, load_world_spec
 from sfa_gym.sim.worlds.data import envs_dir
 from sfa_gym.sim.worlds.spec import world_spec_from_dict
 from sfa_gym.sim.worlds.textures import TexturesSpec, png_bytes
-from sfa_gym.sim.worlds.texturing import SURFACES, Texturer, with_textures
+from sfa_gym.sim.worlds.texturing import SURFACES, Texturer
 
 # sha256 of build_world(spec, seed).mjcf for world seeds 0 and 7 of every shipped spec,
 # computed with the code before generated textures existed
@@ -191,12 +191,17 @@ def test_textures_need_an_outdoor_world_and_valid_keys():
 
 def test_the_env_switch():
     spec = load_world_spec("paper_outdoor")
-    assert with_textures(spec, None) is spec
-    assert with_textures(spec, True).textures == TexturesSpec()
-    assert with_textures(_textured(resolution=64), True).textures == TexturesSpec(resolution=64)
-    assert with_textures(_textured(), False).textures is None
-    with pytest.raises(TypeError, match="textures must be None, a bool or a TexturesSpec"):
-        with_textures(spec, "yes")
+
+    def chosen(world, textures):
+        return resolve_effect("textures", textures, TexturesSpec, world.textures)
+
+    assert chosen(spec, None) is spec.textures
+    assert chosen(spec, True) == TexturesSpec()
+    assert chosen(_textured(resolution=64), True) == TexturesSpec(resolution=64)
+    assert chosen(_textured(), False) is None
+    assert chosen(_textured(resolution=64), {"resolution": 32}) == TexturesSpec(resolution=32)
+    with pytest.raises(TypeError, match="textures must be None, a bool, a TexturesSpec or an"):
+        chosen(spec, "yes")
     with pytest.raises(ValueError, match="outdoor block"):
         OmniRoverEnv(world="paper_sim", textures=True)
 

@@ -45,7 +45,7 @@ def main(args: Args) -> None:
         "sfa_gym/OmniRoverCampus-v0",
         world_seed=args.world_seed,
         sensor=False,
-        movers=False,
+        dynamics={"movers": False},
         render_mode="rgb_array",
         render_size=500,
     )

@@ -42,8 +42,7 @@ def turned_frame(world_seed: int, exposure_s: float, hour: float) -> tuple[np.nd
         ENV_ID,
         world_seed=world_seed,
         textures=True,
-        movers=False,
-        start_hour=hour,
+        dynamics={"movers": False, "start_hour": hour},
         sensor=SensorSpec(noise=False, exposure_s=exposure_s),
     ).unwrapped
     env.reset(seed=0, options={"pose": (0.0, 0.0, 0.0)})

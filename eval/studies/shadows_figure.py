@@ -51,9 +51,7 @@ def main(args: Args) -> None:
             mirror=None,
             panorama=wide,
             sensor=False,
-            clouds=False,
-            movers=False,
-            shadows=shadows,
+            dynamics={"clouds": False, "movers": False, "shadows": shadows},
         )
         for shadows in (False, True)
     }
@@ -64,7 +62,7 @@ def main(args: Args) -> None:
             rows.append((f"{hour:g} h, {'with' if shadows else 'without'} shadows", obs))
     for env in envs.values():
         env.close()
-    mirror = gym.make(ENV_ID, world_seed=args.world_seed, textures=True, shadows=True)
+    mirror = gym.make(ENV_ID, world_seed=args.world_seed, textures=True, dynamics={"shadows": True})
     hour = args.hours[-1]
     obs, _ = mirror.reset(seed=0, options={"pose": POSE, "time_of_day": hour})
     mirror.close()

@@ -371,10 +371,11 @@ class _Part:
 
 def _part_summary(run: Any, part: slice) -> dict[str, Any]:
     xy, time = run.poses[part, :2], run.time[part]
+    dynamics = run.metadata["env_kwargs"].get("dynamics")
     return {
         "path": run.path.name,
         "frames": [part.start or 0, (part.start or 0) + len(xy)],
-        "run_start_hour": run.metadata["env_kwargs"].get("start_hour"),
+        "run_start_hour": dynamics.get("start_hour") if isinstance(dynamics, dict) else None,
         "start_s": float(time[0]),
         "duration_s": float(time[-1] - time[0]),
         "distance_m": round(float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum()), 3),

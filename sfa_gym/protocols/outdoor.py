@@ -25,6 +25,7 @@ run's coordinate range, over all test frames, in the unvisited region and in the
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -102,7 +103,8 @@ def requests(config: Config, world_seed: int) -> dict[str, Any]:
             out[condition] = _request(kwargs, config.driver("test"), config.seed)
     for hours in config.train_also:
         kwargs = config.env_kwargs("after", world_seed)
-        kwargs["start_hour"] = (config.start_hour + hours) % 24.0
+        hour = (config.start_hour + hours) % 24.0  # train_also needs dynamics (checked)
+        kwargs["dynamics"] = dataclasses.replace(kwargs["dynamics"], start_hour=hour)
         out[f"train_{hours:+g}h"] = _request(kwargs, config.driver("train"), config.seed)
     return out
 

@@ -388,17 +388,15 @@ class Config:
             kwargs["panorama"] = PanoramaSpec(width=int(width), height=int(height))
         if not self.dynamics:
             return {**kwargs, "dynamics": False}
+        spec = self.world_dynamics()
         if condition == "after":
-            return {**kwargs, "start_hour": self.start_hour, **self._dated()}
+            return {**kwargs, "dynamics": dataclasses.replace(spec, start_hour=self.start_hour)}
         kind, offset = self._condition(condition)
         # the test runs start when the "after" part does: the training run's frames later
         hour = (self.start_hour + (self.train_frames * self.frame_dt) / 3600.0) % 24.0
-        if kind == "later":
-            return {**kwargs, "start_hour": (hour + offset) % 24.0, **self._dated()}
-        if kind == "no_movers":
-            return {**kwargs, "start_hour": hour, "movers": False, **self._dated()}
-        spec = self.world_dynamics()
         change = {
+            "later": {"start_hour": (hour + offset) % 24.0},
+            "no_movers": {"movers": False},
             "overcast": {"overcast": 1.0},
             "other_day": {"day": spec.day + int(offset)},
             "fog": {"overcast": 1.0, "visibility_m": self.fog_visibility_m},
@@ -408,8 +406,8 @@ class Config:
         }
         if kind == "other_season":  # a dated drive (checked): its date that many days on
             change[kind] = {"day_of_year": (spec.day_of_year - 1 + int(offset)) % 365 + 1}
-        spec = dataclasses.replace(spec, **change[kind])
-        return {**kwargs, "start_hour": hour, "dynamics": spec}
+        spec = dataclasses.replace(spec, **{"start_hour": hour, **change[kind]})
+        return {**kwargs, "dynamics": spec}
 
     @property
     def _sensor_effects(self) -> bool:
@@ -444,13 +442,6 @@ class Config:
         raise ValueError(
             f"unknown test condition {name!r}; this config's are {['after', *offsets]}"
         )
-
-    def _dated(self) -> dict[str, Any]:
-        """``{"dynamics": ...}`` when a date, day or cloud cover is given or shadows are on,
-        else nothing: the env's own dynamics (the runs of before, under the same cache keys)."""
-        given = ("day_of_year", "latitude_deg", "day", "cloud_cover")
-        dated = any(getattr(self, n) is not None for n in given)
-        return {"dynamics": self.world_dynamics()} if dated or self.shadows else {}
 
 
 _SUFFIX = {"later": "{:+g}h", "other_day": "{:+d}", "other_season": "{:+d}d"}

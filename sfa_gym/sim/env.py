@@ -9,12 +9,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym._checks import check_positive
+from sfa_gym._json_types import dataclass_from_json
 from sfa_gym.sim import gl
 
 gl.configure()
@@ -26,18 +28,13 @@ from gymnasium import spaces  # noqa: E402
 from sfa_gym.sim.camera import MirrorCamera, MirrorSpec, PanoramaSpec  # noqa: E402
 from sfa_gym.sim.camera.mirror import vignetting_gain  # noqa: E402
 from sfa_gym.sim.camera.renderer import OmniCamera  # noqa: E402
-from sfa_gym.sim.camera.sensor import Sensor, SensorSpec, resolve_sensor  # noqa: E402
+from sfa_gym.sim.camera.sensor import Sensor, SensorSpec  # noqa: E402
 from sfa_gym.sim.rover import WHEELS, RoverSpec, rover_mjcf, yaw_of_quat  # noqa: E402
 from sfa_gym.sim.view import TopDownView  # noqa: E402
 from sfa_gym.sim.window import Window, check_window  # noqa: E402
 from sfa_gym.sim.worlds import WorldSpec, build_world, load_world_spec  # noqa: E402
-from sfa_gym.sim.worlds.dynamics import (  # noqa: E402
-    Dynamics,
-    DynamicsSpec,
-    resolve_dynamics,
-)
+from sfa_gym.sim.worlds.dynamics import Dynamics, DynamicsSpec  # noqa: E402
 from sfa_gym.sim.worlds.textures import TexturesSpec  # noqa: E402
-from sfa_gym.sim.worlds.texturing import with_textures  # noqa: E402
 
 _PANORAMA_PRESETS = {
     "paper_sim": PanoramaSpec.paper_sim,
@@ -50,6 +47,32 @@ CAMERAS = ("cylindrical", "mirror", "mirror_circular")
 panorama, or the mirror camera's circular image."""
 _SETTLE_SECONDS = 1.0
 _DAY_SECONDS = 86400.0
+
+
+def resolve_effect(name: str, value: Any, cls: type, declared: Any = None) -> Any:
+    """The spec of one effect an env runs (``dynamics``, ``sensor``, ``textures``): None keeps
+    what the world declares (``declared``), False none, True the declared spec or else the
+    default ``cls()``, a ``cls`` itself, or an object of ``cls``'s fields replacing those of
+    the declared spec or else the defaults (``{"clock": False, "start_hour": 17.5}``).
+
+    Raises:
+        TypeError: ``value`` is none of those.
+        ValueError: an object with a key that is not a field of ``cls`` or a bad value, named.
+    """
+    if value is None:
+        return declared
+    if value is False:
+        return None
+    base = cls() if declared is None else declared
+    if value is True:
+        return base
+    if isinstance(value, cls):
+        return value
+    if isinstance(value, Mapping):
+        return dataclass_from_json(cls, value, name, noun="field", base=base)
+    raise TypeError(
+        f"{name} must be None, a bool, a {cls.__name__} or an object of its fields, got {value!r}"
+    )
 
 
 def _from_preset(name: str, value: Any, presets: dict[str, Any], cls: type) -> Any:
@@ -163,21 +186,19 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
       circular image itself (:mod:`sfa_gym.sim.camera.mirror`).
     * ``mirror`` (None): the mirror camera, a ``MirrorSpec`` or a preset name
       ("paper_outdoor", the default); a given ``panorama`` sets the unwarped size.
-    * ``dynamics`` (None): None runs what the world spec declares; False none; True the
-      world's or the default ``DynamicsSpec``; or a ``DynamicsSpec``.
-    * ``clock``, ``clouds``, ``movers``, ``shadows`` (None): switch one effect of the dynamics
-      on or off (None keeps the spec's); ``start_hour`` (None): the time of day the clock
-      starts at; ``cloud_cover`` (None): clouds drawn into the sky covering this fraction of
-      it (None keeps the spec's, by default the plain gradient sky;
-      :mod:`sfa_gym.sim.worlds.sky`).
+    * ``dynamics`` (None): the sun, clouds, movers and shadows
+      (:class:`~sfa_gym.sim.worlds.dynamics.DynamicsSpec`): None runs what the world spec
+      declares; False none; True the world's or the default ``DynamicsSpec``; a
+      ``DynamicsSpec``; or an object of its fields replacing the world's (else the defaults'),
+      e.g. ``{"movers": False, "start_hour": 17.5}`` or ``{"cloud_cover": 0.4}`` (clouds drawn
+      into the sky: :mod:`sfa_gym.sim.worlds.sky`).
     * ``sensor`` (None): the camera's auto-exposure and noise: None or False for none, True
-      for the default ``SensorSpec``, or a ``SensorSpec`` (which also switches on auto white
-      balance, a mirror camera's vignetting and motion blur while turning); ``auto_exposure``
-      and ``sensor_noise`` (None) switch its two default effects. Noise is drawn from a
+      for the default ``SensorSpec``, a ``SensorSpec`` (which also switches on auto white
+      balance, a mirror camera's vignetting and motion blur while turning), or an object of
+      its fields replacing the defaults (``{"noise": False}``). Noise is drawn from a
       generator seeded from ``np_random`` on each reset (same seed, same noise).
-    * ``textures`` (None): generated surface textures (outdoor worlds): None keeps the world
-      spec's, False none, True the spec's or the default ``TexturesSpec``, or a
-      ``TexturesSpec`` (:mod:`sfa_gym.sim.worlds.textures`).
+    * ``textures`` (None): generated surface textures (outdoor worlds), set as ``dynamics`` is
+      (:class:`~sfa_gym.sim.worlds.textures.TexturesSpec`; None keeps the world spec's).
 
     The env also offers :attr:`dt` (seconds per step), :attr:`arena_bounds` and
     :meth:`grid_positions` for drivers, and ``model``, ``data`` (MuJoCo), ``mjcf`` (the model's
@@ -225,17 +246,9 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         render_size: int = 256,
         camera: str = "cylindrical",
         mirror: MirrorSpec | str | None = None,
-        dynamics: bool | DynamicsSpec | None = None,
-        clock: bool | None = None,
-        clouds: bool | None = None,
-        movers: bool | None = None,
-        shadows: bool | None = None,
-        start_hour: float | None = None,
-        cloud_cover: float | None = None,
-        sensor: bool | SensorSpec | None = None,
-        auto_exposure: bool | None = None,
-        sensor_noise: bool | None = None,
-        textures: bool | TexturesSpec | None = None,
+        dynamics: bool | DynamicsSpec | Mapping[str, Any] | None = None,
+        sensor: bool | SensorSpec | Mapping[str, Any] | None = None,
+        textures: bool | TexturesSpec | Mapping[str, Any] | None = None,
     ) -> None:
         self.world = world
         self.world_seed = world_seed
@@ -275,15 +288,11 @@ class OmniRoverEnv(gym.Env[NDArray[np.uint8], NDArray[np.float32]]):
         self.render_size = render_size
 
         spec = world if isinstance(world, WorldSpec) else load_world_spec(world)
-        self.world_spec = with_textures(spec, textures)
-        self.dynamics = resolve_dynamics(
-            self.world_spec.dynamics,
-            dynamics,
-            {"clock": clock, "clouds": clouds, "movers": movers, "shadows": shadows},
-            start_hour,
-            cloud_cover,
+        self.world_spec = dataclasses.replace(
+            spec, textures=resolve_effect("textures", textures, TexturesSpec, spec.textures)
         )
-        self.sensor = resolve_sensor(sensor, auto_exposure, sensor_noise)
+        self.dynamics = resolve_effect("dynamics", dynamics, DynamicsSpec, spec.dynamics)
+        self.sensor = resolve_effect("sensor", sensor, SensorSpec)
         built = build_world(
             self.world_spec, world_seed, rover_mjcf(self.rover, panorama), self.dynamics
         )

@@ -34,12 +34,12 @@ cloud passes, the image first darkens and then the exposure brings it back.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Sensor", "SensorSpec", "azimuth_blur", "resolve_sensor"]
+__all__ = ["Sensor", "SensorSpec", "azimuth_blur"]
 
 
 @dataclass(frozen=True)
@@ -260,38 +260,3 @@ def _ramp(x: NDArray[np.float64]) -> NDArray[np.float64]:
     """The integral of the unit triangle ``max(0, 1 - |u|)`` from -inf to ``x``."""
     x = np.clip(x, -1.0, 1.0)
     return np.where(x < 0, (x + 1) ** 2 / 2, 1 - (1 - x) ** 2 / 2)
-
-
-def resolve_sensor(
-    sensor: bool | SensorSpec | None, auto_exposure: bool | None, noise: bool | None
-) -> SensorSpec | None:
-    """The sensor an env runs: none (None or False), the defaults (True) or the given spec,
-    with ``auto_exposure`` and ``noise`` overriding its fields when given (True/False).
-
-    Raises:
-        ValueError: a switch that is not a bool or None, or one turned on without a sensor.
-    """
-    if sensor is None or sensor is False:
-        spec = None
-    elif sensor is True:
-        spec = SensorSpec()
-    elif isinstance(sensor, SensorSpec):
-        spec = sensor
-    else:
-        raise TypeError(f"sensor must be None, a bool or a SensorSpec, got {sensor!r}")
-    given = {}
-    for field, name, value in (
-        ("auto_exposure", "auto_exposure", auto_exposure),
-        ("noise", "sensor_noise", noise),
-    ):
-        if value is not None and not isinstance(value, bool):
-            raise ValueError(f"{name} must be True, False or None, got {value!r}")
-        if value is not None:
-            given[field] = value
-    if spec is None:
-        if any(given.values()):
-            raise ValueError(
-                f"{sorted(k for k, v in given.items() if v)} need a sensor; pass sensor=True"
-            )
-        return None
-    return replace(spec, **given) if given else spec

@@ -35,7 +35,7 @@ The camera's own effects (exposure, noise) are in :mod:`sfa_gym.sim.camera.senso
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -80,10 +80,8 @@ __all__ = [
     "Lanes",
     "MoverSpec",
     "RoadSpec",
-    "check_switch",
     "mover_lanes",
     "movers_mjcf",
-    "resolve_dynamics",
 ]
 
 _DAY_S = 86400.0
@@ -409,59 +407,3 @@ class Dynamics:
         """Which movers are in the scene now, from ``data``'s mocap poses."""
         z = np.array([data.mocap_pos[i][2] for i in self._mocap])
         return z > AWAY_Z / 2
-
-
-def check_switch(name: str, value: Any) -> bool | None:
-    """``value`` if it is True, False or None (not given); else a ValueError naming ``name``."""
-    if value is not None and not isinstance(value, bool):
-        raise ValueError(f"{name} must be True, False or None, got {value!r}")
-    return value
-
-
-def resolve_dynamics(
-    declared: DynamicsSpec | None,
-    dynamics: bool | DynamicsSpec | None,
-    switches: dict[str, bool | None],
-    start_hour: float | None,
-    cloud_cover: float | None = None,
-) -> DynamicsSpec | None:
-    """The dynamics an env runs, from its arguments.
-
-    Args:
-        declared: what the world spec declares (None: nothing).
-        dynamics: None (what the world declares), False (none), True (the world's, else the
-            defaults) or a spec.
-        switches: ``{"clock": ..., "clouds": ..., "movers": ..., "shadows": ...}``:
-            True/False override the spec's field, None keeps it.
-        start_hour: overrides ``start_hour`` when given.
-        cloud_cover: overrides ``cloud_cover`` when given.
-    Raises:
-        ValueError: a switch that is not a bool or None, a bad start hour or cloud cover, or a
-            switch turned on (or a start hour or cloud cover given) while there are no dynamics.
-    """
-    if dynamics is None:
-        spec = declared
-    elif dynamics is False:
-        spec = None
-    elif dynamics is True:
-        spec = declared if declared is not None else DynamicsSpec()
-    elif isinstance(dynamics, DynamicsSpec):
-        spec = dynamics
-    else:
-        raise TypeError(f"dynamics must be None, a bool or a DynamicsSpec, got {dynamics!r}")
-    given: dict[str, Any] = {k: check_switch(k, v) for k, v in switches.items() if v is not None}
-    if start_hour is not None:
-        if isinstance(start_hour, bool) or not isinstance(start_hour, int | float):
-            raise ValueError(f"start_hour must be a number of hours in [0, 24), got {start_hour!r}")
-        given["start_hour"] = float(start_hour)
-    if cloud_cover is not None:
-        given["cloud_cover"] = cloud_cover  # checked by DynamicsSpec
-    if spec is None:
-        asked = sorted(k for k, v in given.items() if v is not False)
-        if asked:
-            raise ValueError(
-                f"{asked} need dynamics, but the world declares none and dynamics={dynamics!r}; "
-                "pass dynamics=True"
-            )
-        return None
-    return replace(spec, **given) if given else spec

@@ -16,7 +16,6 @@ position, size and colour of the world as it was, and the same world seed gives 
 
 from __future__ import annotations
 
-import dataclasses
 import zlib
 from typing import Any
 
@@ -24,10 +23,9 @@ import numpy as np
 
 from sfa_gym.sim.worlds import textures as _tx
 from sfa_gym.sim.worlds.ground import GroundLook
-from sfa_gym.sim.worlds.spec import WorldSpec
 from sfa_gym.sim.worlds.textures import RGB, TexturesSpec
 
-__all__ = ["CUBE_SURFACES", "SURFACES", "Texturer", "with_textures"]
+__all__ = ["CUBE_SURFACES", "SURFACES", "Texturer"]
 
 SURFACES = _tx.GENERATORS
 """The surfaces that can be textured."""
@@ -141,24 +139,3 @@ class Texturer:
             mapping = f'texrepeat="{_fmt(repeat[0])} {_fmt(repeat[1])}" texuniform="false"'
         assets.append(f'<material name="{name}" texture="tex_{name}" {mapping} {plain}/>')
         return name
-
-
-def with_textures(spec: WorldSpec, textures: bool | TexturesSpec | None) -> WorldSpec:
-    """``spec`` with the textures an env asks for: None keeps the spec's, False none, True
-    the spec's or else the default :class:`TexturesSpec`, or the given one.
-
-    Raises:
-        TypeError: ``textures`` is none of those.
-        ValueError: textures asked for a world without an outdoor block.
-    """
-    if textures is None:
-        return spec
-    if textures is False:
-        chosen = None
-    elif textures is True:
-        chosen = spec.textures or TexturesSpec()
-    elif isinstance(textures, TexturesSpec):
-        chosen = textures
-    else:
-        raise TypeError(f"textures must be None, a bool or a TexturesSpec, got {textures!r}")
-    return dataclasses.replace(spec, textures=chosen)
