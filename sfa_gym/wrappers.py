@@ -100,14 +100,9 @@ class SlowFeatureObservation(
                 "SlowFeatureObservation needs an env with a panorama observation space "
                 f"Box(0, 255, (H, W, 3), uint8), got shape {space.shape} and dtype {space.dtype}"
             )
-        input_shape = getattr(model, "input_shape_", None)
-        if input_shape is None or not callable(getattr(model, "transform", None)):
-            raise TypeError(
-                "SlowFeatureObservation needs a fitted feature model with input_shape_ and "
-                f"transform(views) (e.g. a fitted HierarchicalSFA), got {type(model).__name__}"
-                + ("; is it fitted?" if callable(getattr(model, "transform", None)) else "")
-            )
-        input_shape = tuple(int(d) for d in input_shape)
+        input_shape = _input_shape(
+            "SlowFeatureObservation", model, " (e.g. a fitted HierarchicalSFA)"
+        )
         if not isinstance(average_rotations, bool):
             raise TypeError(f"average_rotations must be a bool, got {average_rotations!r}")
         height, width, _ = space.shape
@@ -269,6 +264,19 @@ class SimulatedRotation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs)
         return self.observation(obs), reward, terminated, truncated, self._with_phi(info)
 
 
+def _input_shape(wrapper: str, model: Any, example: str = "") -> tuple[int, ...]:
+    """``model.input_shape_`` in ints; a TypeError naming ``wrapper`` where ``model`` is not a
+    fitted feature model (``example``: one, for the message)."""
+    input_shape = getattr(model, "input_shape_", None)
+    transforms = callable(getattr(model, "transform", None))
+    if input_shape is None or not transforms:
+        raise TypeError(
+            f"{wrapper} needs a fitted feature model with input_shape_ and transform(views)"
+            f"{example}, got {type(model).__name__}" + ("; is it fitted?" if transforms else "")
+        )
+    return tuple(int(d) for d in input_shape)
+
+
 def _feature_box(k: int) -> gym.spaces.Box:
     return gym.spaces.Box(low=-np.inf, high=np.inf, shape=(k,), dtype=np.float32)
 
@@ -314,15 +322,10 @@ class GoalFeatureObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
                 f"(an OmniRoverNavEnv without a feature field), got {space}"
             )
         height, width, _ = space["panorama"].shape
-        input_shape = getattr(model, "input_shape_", None)
-        if input_shape is None or not callable(getattr(model, "transform", None)):
-            raise TypeError(
-                "GoalFeatureObservation needs a fitted feature model with input_shape_ and "
-                f"transform(views), got {type(model).__name__}"
-            )
-        if int(input_shape[0]) != height or int(input_shape[1]) > width:
+        input_shape = _input_shape("GoalFeatureObservation", model)
+        if input_shape[0] != height or input_shape[1] > width:
             raise ValueError(
-                f"GoalFeatureObservation: the model takes views of shape {tuple(input_shape)}, "
+                f"GoalFeatureObservation: the model takes views of shape {input_shape}, "
                 f"which are not rotation windows of the env's panoramas {space['panorama'].shape}"
             )
         try:
@@ -331,7 +334,7 @@ class GoalFeatureObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
             raise ValueError(f"GoalFeatureObservation(step={step!r}): {error}") from error
         self.model = model
         self.rotation_step = step
-        self._window = int(input_shape[1])
+        self._window = input_shape[1]
         probe = self._features(np.zeros((1, height, width, 3), np.uint8))
         box = _feature_box(probe.shape[1])
         self.observation_space = gym.spaces.Dict({"features": box, "goal_features": box})
