@@ -529,22 +529,11 @@ def plan_outdoor_paths(
     bounds: Sequence[float],
     *,
     dt: float = 0.1,
-    train_frames: int = 5900,
-    test_frames: int = 2800,
-    spacing: float = 0.5,
-    test_spacing: float = 1.0,
-    avoid: Sequence[float] | Literal["south-west"] | None = "south-west",
-    clearance: float = 0.45,
-    margin: float = 0.2,
-    speed: float = 0.36,
-    accel: float = 0.8,
-    turn_rate: float = 0.8,
-    turn_accel: float = 2.0,
-    balance: float = 0.05,
-    test_balance: float = 0.1,
     seed: int | np.random.Generator | None = 0,
+    **settings: Any,
 ) -> tuple[OutdoorPath, OutdoorPath]:
-    """The paper's outdoor training and test paths (see :func:`plan_grid` for the arguments).
+    """The paper's outdoor training and test paths; ``settings`` are the planning arguments of
+    :class:`OutdoorPathDriver` (``train_frames`` to ``test_balance``, see :func:`plan_grid`).
 
     The training path is a grid with lanes about ``spacing`` apart that keeps ``clearance``
     from ``avoid`` (``"south-west"``: :func:`south_west` of ``bounds``); the test path starts
@@ -555,33 +544,8 @@ def plan_outdoor_paths(
     Returns:
         ``(train, test)``; ``train.then(test)`` is the two as one drive.
     """
-    rect = south_west(bounds) if isinstance(avoid, str) and avoid == "south-west" else avoid
-    if isinstance(rect, str):
-        raise ValueError(f"avoid must be a rectangle, 'south-west' or None, got {avoid!r}")
     rng = np.random.default_rng(seed) if not isinstance(seed, np.random.Generator) else seed
-    common: dict[str, Any] = dict(
-        dt=dt, margin=margin, speed=speed, accel=accel, turn_rate=turn_rate, turn_accel=turn_accel
-    )
-    train = plan_grid(
-        bounds,
-        n_frames=train_frames,
-        spacing=spacing,
-        avoid=rect,
-        clearance=clearance,
-        balance=balance,
-        seed=rng,
-        **common,
-    )
-    test = plan_grid(
-        bounds,
-        n_frames=test_frames,
-        spacing=test_spacing,
-        start=train.end,
-        balance=test_balance,
-        seed=rng,
-        **common,
-    )
-    return train, test
+    return OutdoorPathDriver(**settings).paths(bounds, dt, rng)
 
 
 # --------------------------------------------------------------------------- driver
@@ -590,7 +554,7 @@ def plan_outdoor_paths(
 class OutdoorPathDriver(Driver):
     """Drives the paper's outdoor training path, test path, or both as one drive.
 
-    On :meth:`reset` it plans with :func:`plan_outdoor_paths` (the driver's seed makes the
+    On :meth:`reset` it plans with :meth:`paths` (the driver's seed makes the
     random choices) and then, once per step, commands the reference's speed and yaw rate of
     the coming step plus a correction of the tracking error (forward error ``ex``, lateral
     error ``ey`` in the rover's frame, heading error ``eyaw``):
@@ -606,7 +570,8 @@ class OutdoorPathDriver(Driver):
         part: ``"train"``, ``"test"`` (which starts where the training path ends) or ``"both"``.
         train_frames: this and ``test_frames``, ``spacing``, ``test_spacing``, ``avoid``,
             ``clearance``, ``margin``, ``speed``, ``accel``, ``turn_rate``, ``turn_accel``,
-            ``balance``, ``test_balance``: see :func:`plan_outdoor_paths`.
+            ``balance``, ``test_balance``: the planning, see :func:`plan_outdoor_paths` and
+            :func:`plan_grid`.
         speed_limit: largest commanded speed (m/s), the paper's 0.4.
         turn_limit: largest commanded yaw rate (rad/s).
         gain_along: forward error gain (1/s).
@@ -671,29 +636,49 @@ class OutdoorPathDriver(Driver):
                 f"speed {self.speed} m/s exceeds speed_limit {self.speed_limit} m/s; the "
                 "tracking correction needs room above the cruise speed"
             )
-        train, test = plan_outdoor_paths(
-            self.bounds_,
-            dt=self.dt_,
-            train_frames=self.train_frames,
-            test_frames=self.test_frames,
-            spacing=self.spacing,
-            test_spacing=self.test_spacing,
-            avoid=self.avoid,
-            clearance=self.clearance,
-            margin=self.margin,
-            speed=self.speed,
-            accel=self.accel,
-            turn_rate=self.turn_rate,
-            turn_accel=self.turn_accel,
-            balance=self.balance,
-            test_balance=self.test_balance,
-            seed=self.rng_,
-        )
+        train, test = self.paths(self.bounds_, self.dt_, self.rng_)
         self.path_ = {"train": train, "test": test, "both": None}[self.part] or train.then(test)
         x, y, yaw = self.path_.start
         self.start_pose = (x, y, wrap_angle(yaw))
         self.step_ = 0
         self.max_error_ = 0.0
+
+    def paths(
+        self, bounds: Sequence[float], dt: float, rng: np.random.Generator
+    ) -> tuple[OutdoorPath, OutdoorPath]:
+        """The training and test paths in ``bounds`` (see :func:`plan_outdoor_paths`)."""
+        avoid = self.avoid
+        rect = south_west(bounds) if isinstance(avoid, str) and avoid == "south-west" else avoid
+        if isinstance(rect, str):
+            raise ValueError(f"avoid must be a rectangle, 'south-west' or None, got {avoid!r}")
+        common: dict[str, Any] = dict(
+            dt=dt,
+            margin=self.margin,
+            speed=self.speed,
+            accel=self.accel,
+            turn_rate=self.turn_rate,
+            turn_accel=self.turn_accel,
+        )
+        train = plan_grid(
+            bounds,
+            n_frames=self.train_frames,
+            spacing=self.spacing,
+            avoid=rect,
+            clearance=self.clearance,
+            balance=self.balance,
+            seed=rng,
+            **common,
+        )
+        test = plan_grid(
+            bounds,
+            n_frames=self.test_frames,
+            spacing=self.test_spacing,
+            start=train.end,
+            balance=self.test_balance,
+            seed=rng,
+            **common,
+        )
+        return train, test
 
     @property
     def done(self) -> bool:
