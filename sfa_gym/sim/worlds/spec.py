@@ -58,6 +58,14 @@ def _check_range(value: tuple[float, float], name: str, *, low: float | None = N
         raise ValueError(f"{name} must be >= {low}, got {list(value)}")
 
 
+def _check_items(spec: Any, what: str) -> None:
+    """The ``count``, ``height`` and ``width`` of a spec of ``what`` (items of drawn sizes)."""
+    if spec.count < 0:
+        raise ValueError(f"{what} count must be >= 0, got {spec.count}")
+    _check_range(spec.height, f"{what} height", low=1e-3)
+    _check_range(spec.width, f"{what} width", low=1e-3)
+
+
 def _check_positive(value: float, name: str) -> None:
     if not value > 0:
         raise ValueError(f"{name} must be positive, got {value!r}")
@@ -192,10 +200,7 @@ class LandmarkKind:
     def __post_init__(self) -> None:
         if self.kind not in LANDMARK_KINDS:
             raise ValueError(f"landmark kind must be one of {LANDMARK_KINDS}, got {self.kind!r}")
-        if self.count < 0:
-            raise ValueError(f"landmark count must be >= 0, got {self.count}")
-        _check_range(self.height, "landmark height", low=1e-3)
-        _check_range(self.width, "landmark width", low=1e-3)
+        _check_items(self, "landmark")
 
 
 @dataclass(frozen=True)
@@ -243,14 +248,11 @@ class ObstaclesSpec:
     colours: ColourRange = ColourRange()
 
     def __post_init__(self) -> None:
-        if self.count < 0:
-            raise ValueError(f"obstacle count must be >= 0, got {self.count}")
+        _check_items(self, "obstacle")
         if not self.kinds or any(k not in OBSTACLE_KINDS for k in self.kinds):
             raise ValueError(
                 f"obstacle kinds must be a subset of {OBSTACLE_KINDS}, got {self.kinds}"
             )
-        _check_range(self.height, "obstacle height", low=1e-3)
-        _check_range(self.width, "obstacle width", low=1e-3)
 
 
 @dataclass(frozen=True)
@@ -358,10 +360,7 @@ class ItemsSpec:
     colours: ColourRange = ColourRange()
 
     def __post_init__(self) -> None:
-        if self.count < 0:
-            raise ValueError(f"outdoor item count must be >= 0, got {self.count}")
-        _check_range(self.height, "outdoor item height", low=1e-3)
-        _check_range(self.width, "outdoor item width", low=1e-3)
+        _check_items(self, "outdoor item")
 
 
 @dataclass(frozen=True)
