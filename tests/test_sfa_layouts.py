@@ -13,7 +13,7 @@ import sfa_gym.sfa._sources as sources
 from eval.benchmarks.bench_sfa_layouts import previous_layouts
 from eval.synthetic import synthetic_panoramas
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, presets
-from sfa_gym.sfa._layers import Affine
+from sfa_gym.sfa._layers import Affine, layer_patches
 
 
 def _fit(panoramas: np.ndarray, sharing: str) -> HierarchicalSFA:
@@ -73,6 +73,6 @@ def test_a_row_shared_layer_reads_each_row_of_the_patch_view_as_its_node_inputs(
     for p in model.layer_params_:
         assert p.reduce.row_shared
         # every node's output from the layer's materialised node inputs, and from the view
-        whole = p.nodes(p.patches(a), clip=None)
+        whole = p.nodes(layer_patches(p.spec, p.grid, a), clip=None)
         np.testing.assert_array_equal(p.forward(a, clip=None), whole)
         a = whole

@@ -40,7 +40,7 @@ from eval.synthetic import synthetic_panoramas
 from sfa_gym.files import write_json_atomic
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.sfa import RankDeficiencyWarning
-from sfa_gym.sfa._layers import LayerParams
+from sfa_gym.sfa._layers import LayerParams, layer_patches
 
 
 @dataclass(frozen=True)
@@ -69,7 +69,8 @@ def previous_layouts() -> Iterator[None]:
     def forward(
         self: LayerParams, a: np.ndarray, clip: Any, n_cols=None, col_stride=None, col_dilation=1
     ) -> np.ndarray:
-        return self.nodes(self.patches(a, n_cols, col_stride, col_dilation), clip)
+        patches = layer_patches(self.spec, self.grid, a, n_cols, col_stride, col_dilation)
+        return self.nodes(patches, clip)
 
     # every module that holds features_first: the rotation source compares the featurize it
     # is given with its own (the plain linear-SFA pass)

@@ -236,19 +236,8 @@ class LayerParams:
         By default the layer's own grid. The rotation shortcut runs a layer on a dense periodic
         grid instead (``n_cols`` nodes, ``col_stride`` and ``col_dilation`` in input columns).
         """
-        return self.nodes(self.patches(a, n_cols, col_stride, col_dilation, copy=False), clip)
-
-    def patches(
-        self,
-        a: NDArray[np.floating],
-        n_cols: int | None = None,
-        col_stride: int | None = None,
-        col_dilation: int = 1,
-        copy: bool = True,
-    ) -> NDArray[np.floating]:
-        """Node inputs ``(N, R, n_cols, F)`` (see :meth:`forward` for the arguments; ``copy``:
-        :func:`extract_patches`)."""
-        return layer_patches(self.spec, self.grid, a, n_cols, col_stride, col_dilation, copy)
+        patches = layer_patches(self.spec, self.grid, a, n_cols, col_stride, col_dilation, False)
+        return self.nodes(patches, clip)
 
 
 def _node(
@@ -268,7 +257,8 @@ def layer_patches(
     col_dilation: int = 1,
     copy: bool = True,
 ) -> NDArray[np.floating]:
-    """Node inputs of a layer with spec ``spec`` and view grid ``grid`` (see ``forward``)."""
+    """Node inputs ``(N, R, n_cols, F)`` of a layer with spec ``spec`` and view grid ``grid``
+    (see :meth:`LayerParams.forward` for the arguments; ``copy``: :func:`extract_patches`)."""
     return extract_patches(
         a,
         spec.field,
