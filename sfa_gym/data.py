@@ -14,7 +14,14 @@ import tomllib
 from pathlib import Path
 from typing import Literal
 
-__all__ = ["DATA_FOLDERS", "DataKind", "PROJECT_NAME", "checkout_root", "data_folder"]
+__all__ = [
+    "DATA_FOLDERS",
+    "DataKind",
+    "PROJECT_NAME",
+    "checkout_root",
+    "data_folder",
+    "packaged_path",
+]
 
 PROJECT_NAME = "sfa-gym"
 """The ``[project] name`` in the repository's ``pyproject.toml``."""
@@ -57,13 +64,26 @@ def data_folder(kind: DataKind, package_dir: Path | None = None) -> Path:
     if kind not in DATA_FOLDERS:
         raise ValueError(f"data kind must be one of {sorted(DATA_FOLDERS)}, got {kind!r}")
     in_checkout, shipped = DATA_FOLDERS[kind]
+    return packaged_path(f"sfa_gym's {kind} data", in_checkout, shipped, package_dir)
+
+
+def packaged_path(
+    what: str, in_checkout: str, shipped: str, package_dir: Path | None = None, folder: bool = True
+) -> Path:
+    """``in_checkout`` of the checkout in a checkout, else ``shipped`` inside the installed
+    package (``package_dir``): the first that is a folder (``folder=False``: a file).
+
+    Raises:
+        FileNotFoundError: neither exists (an incomplete installation); the message names
+            ``what``.
+    """
     package_dir = package_dir or _package_dir()
     root = checkout_root(package_dir)
     candidates = ([root / in_checkout] if root is not None else []) + [package_dir / shipped]
-    for folder in candidates:
-        if folder.is_dir():
-            return folder
+    for path in candidates:
+        if path.is_dir() if folder else path.is_file():
+            return path
     raise FileNotFoundError(
-        f"sfa_gym's {kind} data is missing: none of {', '.join(map(str, candidates))} exists; "
-        "reinstall the package"
+        f"{what} is missing: none of {', '.join(map(str, candidates))} exists; reinstall the "
+        "package"
     )

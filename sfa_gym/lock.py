@@ -51,18 +51,9 @@ def lock_path() -> Path:
     Raises:
         FileNotFoundError: neither exists (an incomplete installation).
     """
-    from sfa_gym.data import checkout_root
+    from sfa_gym.data import packaged_path
 
-    package_dir = Path(__file__).resolve().parent
-    root = checkout_root(package_dir)
-    candidates = ([root / LOCK_FILE] if root is not None else []) + [package_dir / LOCK_FILE]
-    for path in candidates:
-        if path.is_file():
-            return path
-    raise FileNotFoundError(
-        f"the lock is missing: none of {', '.join(map(str, candidates))} exists; reinstall "
-        "the package"
-    )
+    return packaged_path("the lock", LOCK_FILE, LOCK_FILE, folder=False)
 
 
 def read_lock(path: str | Path | None = None) -> dict[str, str]:
