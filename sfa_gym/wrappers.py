@@ -1,4 +1,29 @@
-"""Observation wrappers that turn panoramas into slow features."""
+"""Observation wrappers that turn panoramas into slow features.
+
+Example:
+    A stand-in model (mean colour of the panorama) shows the mechanics; in practice the model is
+    a fitted :class:`~sfa_gym.sfa.HierarchicalSFA`.
+
+    >>> import gymnasium as gym
+    >>> import numpy as np
+    >>> import sfa_gym
+    >>> class MeanColour:
+    ...     input_shape_ = (40, 350, 3)
+    ...     def transform(self, views):
+    ...         return views.reshape(len(views), -1, 3).mean(axis=1)
+    >>> env = SlowFeatureObservation(gym.make("sfa_gym/OmniRover-v0"), MeanColour())
+    >>> env.observation_space
+    Box(-inf, inf, (3,), float32)
+    >>> obs, info = env.reset(seed=0)
+    >>> obs.shape, obs.dtype, bool(np.all((0 <= obs) & (obs <= 255)))
+    ((3,), dtype('float32'), True)
+    >>> env.close()
+    >>> env = GoalFeatureObservation(gym.make("sfa_gym/OmniRoverNav-v0"), MeanColour())
+    >>> obs, info = env.reset(seed=0)
+    >>> sorted(obs), obs["features"].shape
+    (['features', 'goal_features'], (3,))
+    >>> env.close()
+"""
 
 from __future__ import annotations
 
@@ -58,24 +83,7 @@ class SlowFeatureObservation(
             paper's 5-column windows (``eval/studies/camera_equivariance.py``); hierarchical SFA
             computes it at about five times the cost of ``step=5``.
 
-    Example:
-        A stand-in model (mean colour of the panorama) shows the mechanics; in practice the model
-        is a fitted :class:`~sfa_gym.sfa.HierarchicalSFA`.
-
-        >>> import gymnasium as gym
-        >>> import numpy as np
-        >>> import sfa_gym
-        >>> class MeanColour:
-        ...     input_shape_ = (40, 350, 3)
-        ...     def transform(self, views):
-        ...         return views.reshape(len(views), -1, 3).mean(axis=1)
-        >>> env = SlowFeatureObservation(gym.make("sfa_gym/OmniRover-v0"), MeanColour())
-        >>> env.observation_space
-        Box(-inf, inf, (3,), float32)
-        >>> obs, info = env.reset(seed=0)
-        >>> obs.shape, obs.dtype, bool(np.all((0 <= obs) & (obs <= 255)))
-        ((3,), dtype('float32'), True)
-        >>> env.close()
+    Example: in the module docstring.
     """
 
     def __init__(
@@ -297,19 +305,7 @@ class GoalFeatureObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
             averages over every column, which makes the features the same whichever way the
             rover faces (to rounding, for whole-column headings).
 
-    Example:
-        >>> import gymnasium as gym
-        >>> import numpy as np
-        >>> import sfa_gym
-        >>> class MeanColour:
-        ...     input_shape_ = (40, 350, 3)
-        ...     def transform(self, views):
-        ...         return views.reshape(len(views), -1, 3).mean(axis=1)
-        >>> env = GoalFeatureObservation(gym.make("sfa_gym/OmniRoverNav-v0"), MeanColour())
-        >>> obs, info = env.reset(seed=0)
-        >>> sorted(obs), obs["features"].shape
-        (['features', 'goal_features'], (3,))
-        >>> env.close()
+    Example: in the module docstring.
     """
 
     def __init__(self, env: gym.Env, model: FeatureModel, step: int = 1) -> None:
