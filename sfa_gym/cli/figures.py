@@ -39,24 +39,19 @@ def quarter_outputs(
     return outputs, rotation.angles(width, ks)
 
 
-def grid_figures(
-    out: Path,
-    model: Any,
-    rotation: Rotation,
-    panoramas: NDArray[np.uint8],
-    poses: NDArray[np.float64],
-    test_xy: NDArray[np.float64],
-    estimates: NDArray[np.float64],
-) -> None:
+def grid_figures(out: Path, scores: Any) -> None:
     """``firing_maps.png`` over every grid position, ``estimates.png`` and ``error_map.png`` of
-    the SFA estimates ``(M, 2)`` at the test positions ``(M, 2)``."""
+    the SFA estimates at the test positions, from the grid protocol's ``Scores`` of SFA."""
     from matplotlib.figure import Figure
 
     from sfa_gym.localization import plots
 
-    outputs, phis = quarter_outputs(model, panoramas, rotation)
+    data = scores.data
+    estimates = scores.regressions[FIGURE_REGRESSOR].estimates
+    test_xy = data.positions[data.test]
+    outputs, phis = quarter_outputs(scores.method.model_, data.panoramas, scores.config.rotation)
     fig: Figure
-    fig, _ = plots.firing_maps(outputs, poses[:, :2], phis=phis, n_outputs=4)
+    fig, _ = plots.firing_maps(outputs, data.positions[:, :2], phis=phis, n_outputs=4)
     fig.savefig(out / "firing_maps.png", dpi=DPI, bbox_inches="tight")
     fig, _ = plots.estimate_vs_truth(estimates, test_xy)
     fig.savefig(out / "estimates.png", dpi=DPI, bbox_inches="tight")

@@ -172,7 +172,7 @@ def run_grid_experiment(
     splits of the test positions) and ``train_test`` (fitted on the training positions).
     Returns the results as written to ``results.json``."""
     out = _output_folder(config, out_dir)
-    found, protocol = _score_in_folder(grid, config, out, methods, progress)
+    found, _ = _score_in_folder(grid, config, out, methods, progress)
     data, model = found[0].data, found[0].method.model_
     results = _write(
         out,
@@ -186,11 +186,7 @@ def run_grid_experiment(
     if figures:
         from sfa_gym.cli.figures import grid_figures
 
-        estimates = found[0].regressions[FIGURE_REGRESSOR].estimates
-        test_xy = data.positions[data.test]
-        grid_figures(
-            out, model, protocol.rotation, data.panoramas, data.positions, test_xy, estimates
-        )
+        grid_figures(out, found[0])
     return results
 
 
