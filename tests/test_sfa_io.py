@@ -18,7 +18,8 @@ from eval.synthetic import synthetic_panoramas
 from sfa_gym.rotation import rotated_views
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, load_model, presets, save_model
 from sfa_gym.sfa._layers import Affine, LayerParams
-from sfa_gym.sfa.io import FORMAT, FORMAT_VERSION, MAX_COMPRESSION_RATIO, architecture
+from sfa_gym.files import MAX_COMPRESSION_RATIO
+from sfa_gym.sfa.io import FORMAT, FORMAT_VERSION, architecture
 
 
 @pytest.fixture(scope="module")
@@ -151,11 +152,11 @@ def test_bad_files_are_rejected_with_the_reason(good, tmp_path):
 
     with open(bad, "wb") as fh:
         np.savez(fh, weights=np.ones(3))
-    with pytest.raises(ValueError, match="no 'header'"):
+    with pytest.raises(ValueError, match=r"missing member\(s\) \['header'\]"):
         load_model(bad)
 
     _rewrite(good, bad, header_edit=lambda h: h.update(format="other-model"))
-    with pytest.raises(ValueError, match="not an sfa-gym model"):
+    with pytest.raises(ValueError, match="expected 'sfa-gym-model'"):
         load_model(bad)
 
     _rewrite(good, bad, header_edit=lambda h: h.update(version=FORMAT_VERSION + 1))
@@ -163,7 +164,7 @@ def test_bad_files_are_rejected_with_the_reason(good, tmp_path):
         load_model(bad)
 
     _rewrite(good, bad, drop="layer2.expand.bias")
-    with pytest.raises(ValueError, match="missing array 'layer2.expand.bias'"):
+    with pytest.raises(ValueError, match=r"missing member\(s\) \['layer2.expand.bias'\]"):
         load_model(bad)
 
     _rewrite(good, bad, replace={"layer1.reduce.weight": np.zeros((5, 5))})
@@ -183,10 +184,8 @@ def test_bad_files_are_rejected_with_the_reason(good, tmp_path):
     with pytest.raises(ValueError, match=r"layer 1: linear SFA dimension 1000000 outside \[1, 6\]"):
         load_model(bad)
 
-    with pytest.raises(ValueError, match="takes views of shape"):
-        load_model(good, expected_input_shape=(40, 350, 3))
     # every message names the file
-    with pytest.raises(ValueError, match=f"cannot load SFA model {str(good)!r}"):
+    with pytest.raises(ValueError, match=f"cannot load SFA model {str(good)!r}: .*takes views of"):
         load_model(good, expected_input_shape=(40, 350, 3))
 
 

@@ -45,8 +45,9 @@ the interpolation: over 1 cm they change by 0.039 in the median but 0.065 on ave
 of small jumps, e.g. when an edge crosses a pixel row), and the error shrinks roughly like the
 square root of the spacing. The spread over headings (step 1) is ~0.05 of the change over 0.1 m.
 
-File format (version 1): one ``.npz`` archive as ``np.savez`` writes it (uncompressed), read
-with ``allow_pickle=False``, written atomically (:func:`sfa_gym.files.write_atomic`):
+File format (version 1): one ``.npz`` archive as ``np.savez`` writes it (uncompressed), written
+atomically and read, never unpickled, by :func:`sfa_gym.files.write_npz` and
+:func:`~sfa_gym.files.read_npz`:
 
 - ``header``: 0-d unicode array holding a JSON object::
 
@@ -66,8 +67,7 @@ with ``allow_pickle=False``, written atomically (:func:`sfa_gym.files.write_atom
 - ``free``: ``(ny, nx)`` bool, the nodes that were rendered.
 
 No other member is allowed. :meth:`FeatureField.load` checks every member's ``.npy`` header
-(dtype and shape against the JSON header) before reading any data, so a pickled object array
-is refused without being unpickled.
+(dtype, shape and size against the JSON header) before reading any data.
 """
 
 from __future__ import annotations
@@ -79,7 +79,6 @@ import json
 import math
 import os
 import time
-import zipfile
 from collections.abc import Callable
 from fractions import Fraction
 from pathlib import Path
@@ -91,7 +90,7 @@ from numpy.typing import ArrayLike, NDArray
 from sfa_gym._checks import FEATURE_BOUND
 from sfa_gym.capabilities import get_capabilities
 from sfa_gym.features import rotation_averaged_features
-from sfa_gym.files import check_format_header, read_npy_header, strict_json, write_atomic
+from sfa_gym.files import load_error, read_npz, strict_json, write_npz
 
 __all__ = [
     "FORMAT",
@@ -106,10 +105,7 @@ FORMAT = "sfa-gym-feature-field"
 FORMAT_VERSION = 1
 INTERPOLATIONS = ("linear", "catmull-rom", "cubic")
 """Interpolation between nodes: bilinear, Catmull-Rom (local bicubic), the bicubic spline."""
-MAX_HEADER_BYTES = 1 << 20
-"""Largest header member accepted (a real header is a few kB)."""
 _DEGREE = {"linear": 1, "catmull-rom": 3, "cubic": 3}
-_MEMBERS = ("header", "values", "free")
 
 
 def world_hash(spec: Any) -> str | None:
@@ -620,16 +616,14 @@ class FeatureField:
         Raises:
             ValueError: the metadata is not JSON-serialisable (names the key of a NaN).
         """
-        try:
-            text = strict_json(self.header(), indent=None)
-        except TypeError as err:
-            raise ValueError(f"the field's metadata is not JSON-serialisable: {err}") from None
         arrays = {
-            "header": np.array(text),
             "values": np.ascontiguousarray(self.values, dtype="<f8"),
             "free": np.ascontiguousarray(self.free),
         }
-        write_atomic(path, lambda file: np.savez(file, **arrays))  # type: ignore[arg-type]
+        try:
+            write_npz(path, self.header(), arrays)
+        except TypeError as err:
+            raise ValueError(f"the field's metadata is not JSON-serialisable: {err}") from None
 
     @classmethod
     def load(cls, path: str | os.PathLike[str], interpolation: str | None = None) -> FeatureField:
@@ -645,17 +639,7 @@ class FeatureField:
                 a newer format version, missing or extra members, or arrays whose dtype or
                 shape do not match the header; the message names the file and what is wrong.
         """
-        path = Path(path)
-        if not path.is_file():
-            raise FileNotFoundError(f"no feature field file at {str(path)!r}")
-        try:
-            header, arrays = _read(path)
-        except _BadField as err:
-            raise ValueError(f"cannot load feature field {str(path)!r}: {err}") from None
-        except (zipfile.BadZipFile, OSError, EOFError) as err:
-            raise ValueError(
-                f"cannot load feature field {str(path)!r}: not a readable .npz archive ({err})"
-            ) from None
+        header, arrays = read_npz(path, "feature field", FORMAT, FORMAT_VERSION, _layout)
         try:
             field = cls(
                 arrays["values"],
@@ -665,13 +649,9 @@ class FeatureField:
                 interpolation=interpolation or header["interpolation"],
             )
         except (TypeError, ValueError) as err:
-            raise ValueError(f"cannot load feature field {str(path)!r}: {err}") from None
-        field.from_file = path
+            raise load_error("feature field", path, err) from None
+        field.from_file = Path(path)
         return field
-
-
-class _BadField(ValueError):
-    pass
 
 
 def _model_features(model: Any, panoramas: NDArray[np.uint8], step: int) -> NDArray[np.float64]:
@@ -693,77 +673,13 @@ def _model_features(model: Any, panoramas: NDArray[np.uint8], step: int) -> NDAr
     return f
 
 
-def _read(path: Path) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
-    with open(path, "rb") as file:
-        if file.read(1) == b"\x80":  # the PROTO opcode every pickle since protocol 2 starts with
-            raise _BadField("the file is a pickle; feature fields are never unpickled")
-    with zipfile.ZipFile(path) as archive:
-        members = {info.filename.removesuffix(".npy"): info for info in archive.infolist()}
-        unknown = sorted(set(members) - set(_MEMBERS))
-        if unknown:
-            raise _BadField(f"members the format does not define: {unknown}")
-        missing = [m for m in _MEMBERS if m not in members]
-        if missing:
-            raise _BadField(f"missing member(s) {missing}; expected {list(_MEMBERS)}")
-        if members["header"].file_size > MAX_HEADER_BYTES:
-            raise _BadField(f"the header holds {members['header'].file_size} bytes")
-        header = _parse_header(_read_member(archive, members["header"], "header", None, ()))
-        ny, nx, _ = header["shape"]
-        values = _read_member(archive, members["values"], "values", "<f8", tuple(header["shape"]))
-        free = _read_member(archive, members["free"], "free", "|b1", (ny, nx))
-    return header, {"values": values, "free": free}
-
-
-def _read_member(
-    archive: zipfile.ZipFile,
-    info: zipfile.ZipInfo,
-    key: str,
-    dtype: str | None,
-    shape: tuple[int, ...],
-) -> NDArray[Any]:
-    """One member, after checking its ``.npy`` header: no objects (pickles), ``dtype`` (None:
-    unicode text) and ``shape``."""
-    with archive.open(info) as file:
-        try:
-            got_shape, fortran, got_dtype = read_npy_header(file)
-        except ValueError as err:
-            raise _BadField(f"member {key!r} is not a .npy array ({err})") from None
-        if got_dtype.hasobject:
-            raise _BadField(
-                f"member {key!r} holds Python objects (a pickle); feature fields are never "
-                "unpickled"
-            )
-        if (dtype is None and got_dtype.kind != "U") or (
-            dtype is not None and got_dtype != np.dtype(dtype)
-        ):
-            want = "unicode text" if dtype is None else np.dtype(dtype).name
-            raise _BadField(f"member {key!r} has dtype {got_dtype}, expected {want}")
-        if tuple(got_shape) != shape:
-            raise _BadField(
-                f"member {key!r} has shape {tuple(got_shape)}, expected {shape} (the header's)"
-            )
-        count = math.prod(shape)
-        data = file.read(count * got_dtype.itemsize)
-    if len(data) != count * got_dtype.itemsize:
-        raise _BadField(f"member {key!r} is truncated")
-    array = np.frombuffer(data, dtype=got_dtype).reshape(shape, order="F" if fortran else "C")
-    if dtype is None:
-        return array
-    return array.copy()
-
-
-def _parse_header(array: NDArray[Any]) -> dict[str, Any]:
-    try:
-        header = json.loads(str(array.reshape(())[()]))
-    except json.JSONDecodeError as err:
-        raise _BadField(f"the header is not valid JSON ({err})") from None
-    try:
-        check_format_header(header, FORMAT, FORMAT_VERSION, "a feature field file")
-    except ValueError as err:
-        raise _BadField(str(err)) from None
+def _layout(
+    header: dict[str, Any], version: int
+) -> tuple[dict[str, Any], dict[str, tuple[str, tuple[int, ...]]]]:
+    """The header and the members it defines (see :func:`sfa_gym.files.read_npz`)."""
     missing = [k for k in ("shape", "bounds", "interpolation", "metadata") if k not in header]
     if missing:
-        raise _BadField(f"the header lacks {missing}")
+        raise ValueError(f"the header lacks {missing}")
     shape = header["shape"]
     if not (
         isinstance(shape, list)
@@ -773,7 +689,8 @@ def _parse_header(array: NDArray[Any]) -> dict[str, Any]:
         and shape[1] >= 2
         and shape[2] >= 1
     ):
-        raise _BadField(f"the header's shape {shape!r} is not [ny >= 2, nx >= 2, k >= 1]")
+        raise ValueError(f"the header's shape {shape!r} is not [ny >= 2, nx >= 2, k >= 1]")
     if not isinstance(header["metadata"], dict):
-        raise _BadField(f"the header's metadata is {type(header['metadata']).__name__}, not a dict")
-    return header
+        kind = type(header["metadata"]).__name__
+        raise ValueError(f"the header's metadata is {kind}, not a dict")
+    return header, {"values": ("<f8", tuple(shape)), "free": ("|b1", tuple(shape[:2]))}
