@@ -15,10 +15,10 @@ from numpy.lib import format as npy
 from sklearn.exceptions import NotFittedError
 
 from eval.synthetic import synthetic_panoramas
+from sfa_gym.files import MAX_COMPRESSION_RATIO
 from sfa_gym.rotation import rotated_views
 from sfa_gym.sfa import HierarchicalSFA, RankDeficiencyWarning, load_model, presets, save_model
 from sfa_gym.sfa._layers import Affine, LayerParams
-from sfa_gym.files import MAX_COMPRESSION_RATIO
 from sfa_gym.sfa.io import FORMAT, FORMAT_VERSION, architecture
 
 
