@@ -16,9 +16,11 @@ __all__ = [
     "check_finite",
     "check_fits_in_memory",
     "check_int",
+    "check_int_in",
     "check_positive",
     "check_positive_int",
     "check_world_seed",
+    "is_int",
     "is_number",
     "machine_memory_bytes",
 ]
@@ -34,9 +36,14 @@ def is_number(value: Any) -> bool:
     return isinstance(value, int | float | np.number) and not isinstance(value, bool)
 
 
+def is_int(value: Any) -> bool:
+    """Whether ``value`` is an int (Python's or numpy's; bools are not)."""
+    return isinstance(value, int | np.integer) and not isinstance(value, bool)
+
+
 def check_int(name: str, value: Any) -> int:
     """``value`` as an int; TypeError naming ``name`` if it is not one (bools are not)."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+    if not is_int(value):
         raise TypeError(f"{name} must be an int, got {value!r}")
     return int(value)
 
@@ -56,9 +63,18 @@ def check_positive_int(name: str, value: Any, *, none: bool = False) -> int | No
     ``none``); ValueError naming ``name`` otherwise."""
     if value is None and none:
         return None
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+    if not is_int(value) or value < 1:
         expected = "a positive int or None" if none else "a positive int"
         raise ValueError(f"{name} must be {expected}, got {value!r}")
+    return int(value)
+
+
+def check_int_in(name: str, value: Any, low: int, high: int | None = None) -> int:
+    """``value`` as an int after checking that it is one in ``[low, high]`` (no upper bound
+    for None); ValueError naming ``name`` and the range otherwise."""
+    if not is_int(value) or value < low or (high is not None and value > high):
+        bound = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise ValueError(f"{name} must be an int {bound}, got {value!r}")
     return int(value)
 
 

@@ -86,7 +86,7 @@ def test_bad_blocks_and_designs_are_named():
     outdoor = CAMPUS.outdoor
     with pytest.raises(ValueError, match="blocks look like the buildings' designs"):
         dataclasses.replace(outdoor, buildings=dataclasses.replace(outdoor.buildings, designs=0))
-    with pytest.raises(ValueError, match="buildings designs must be an integer >= 0"):
+    with pytest.raises(ValueError, match="buildings designs must be an int >= 0"):
         dataclasses.replace(outdoor.buildings, designs=-1)
     with pytest.raises(ValueError, match=r"blocks\[0\] must be \(xmin, xmax, ymin, ymax\)"):
         dataclasses.replace(outdoor, blocks=((1.0, 0.0, 0.0, 1.0),))

@@ -193,7 +193,7 @@ def test_bad_road_values_are_refused_by_name():
         build_world(world_spec_from_dict(bad), 0)
     with pytest.raises(ValueError, match=r"road lane_width must be at least a car's width"):
         RoadSpec(lane_width=1.5)
-    with pytest.raises(ValueError, match=r"road car_lanes must be an integer >= 1, got 0"):
+    with pytest.raises(ValueError, match=r"road car_lanes must be an int >= 1, got 0"):
         RoadSpec(car_lanes=0)
     with pytest.raises(ValueError, match=r"a car keeps to the road's lanes.*offset"):
         MoverSpec("car", offset=(3.0, 4.0))

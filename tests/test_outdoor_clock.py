@@ -99,7 +99,7 @@ def test_the_date_place_and_day_reach_every_run():
         ({"day_of_year": 0}, "day_of_year must be an integer in 1..366, got 0"),
         ({"day_of_year": 15, "latitude_deg": -91.0}, "latitude_deg must be a number of degrees"),
         ({"latitude_deg": 50.0}, "latitude_deg=50.0 places the sun by date"),
-        ({"day": -1}, "day must be an integer >= 0, got -1"),
+        ({"day": -1}, "day must be an int >= 0, got -1"),
         ({"day_of_year": 15, "dynamics": False}, r"\['day_of_year'\] set the world's dynamics"),
         ({"later_hours": (2.0, 6.0)}, r"later_hours=\(2.0, 6.0\) gives the offsets of the 'later'"),
         ({"conditions": ("later",), "later_hours": ()}, "later_hours must be a number or a non"),

@@ -10,6 +10,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sfa_gym._checks import check_int_in
 from sfa_gym.localization._estimator import _Base
 
 __all__ = ["MapDecoder"]
@@ -178,9 +179,7 @@ class MapDecoder(_Base):
     def fit(self, X: ArrayLike, y: ArrayLike) -> MapDecoder:
         """Fit on features ``X (N, k)`` and positions ``y (N, 2)`` (or ``(N, 1)``, ``(N,)``)."""
         for name, low in (("degree", 1), ("grid", 5), ("cv_blocks", 2)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
-                raise ValueError(f"{name} must be an int >= {low}, got {value!r}")
+            check_int_in(name, getattr(self, name), low)
         smoothness = self.smoothness
         if smoothness != "auto" and (
             isinstance(smoothness, bool)

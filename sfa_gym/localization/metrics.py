@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from sklearn.base import clone
 from tqdm.auto import tqdm
 
+from sfa_gym._checks import check_int_in
 from sfa_gym.localization.regression import Regressor, make_regressor
 
 __all__ = [
@@ -229,8 +230,7 @@ def random_split_mae(
     pos = _as_positions(positions, "positions")
     f = _as_features(features, n=len(pos))
     make = _factory(regressor_factory)
-    if isinstance(n_splits, bool) or not isinstance(n_splits, int | np.integer) or n_splits < 1:
-        raise ValueError(f"n_splits must be an int >= 1, got {n_splits!r}")
+    check_int_in("n_splits", n_splits, 1)
     if not 0.0 < train_fraction < 1.0:
         raise ValueError(f"train_fraction must lie strictly between 0 and 1, got {train_fraction}")
     n = len(pos)

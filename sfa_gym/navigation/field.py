@@ -87,7 +87,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sfa_gym._checks import FEATURE_BOUND
+from sfa_gym._checks import FEATURE_BOUND, check_positive_int
 from sfa_gym.capabilities import get_capabilities
 from sfa_gym.features import rotation_averaged_features
 from sfa_gym.files import load_error, read_npz, strict_json, write_npz
@@ -157,12 +157,6 @@ def _check_spacing(spacing: Any, bounds: tuple[float, float, float, float]) -> f
             "m): the grid needs at least two nodes per axis"
         )
     return spacing
-
-
-def _check_positive_int(name: str, value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-        raise ValueError(f"{name} must be a positive int, got {value!r}")
-    return int(value)
 
 
 def _catmull_rom(n: int, t: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -427,8 +421,8 @@ class FeatureField:
             )
         bounds = tuple(float(b) for b in env.arena_bounds)
         spacing = _check_spacing(spacing, bounds)  # type: ignore[arg-type]
-        step = _check_positive_int("step", step)
-        batch = _check_positive_int("batch", batch)
+        step = check_positive_int("step", step)
+        batch = check_positive_int("batch", batch)
         description = _env_description(env)
         width = description["panorama_width"]
         if width is not None and width % step:

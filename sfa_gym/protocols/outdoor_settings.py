@@ -25,7 +25,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, get_args
 
-from sfa_gym._checks import check_int, check_positive_int, is_number
+from sfa_gym._checks import check_int, check_int_in, check_positive_int, is_number
 from sfa_gym.localization.appearance import Normalisation
 from sfa_gym.protocols.settings import check_choice, check_choices
 from sfa_gym.rotation import Rotation, check_step
@@ -259,9 +259,7 @@ class Config:
                     "day_of_year (1..366) too"
                 )
         if self.day is not None:
-            check_int("day", self.day)
-            if self.day < 0:
-                raise ValueError(f"day must be an integer >= 0, got {self.day!r}")
+            check_int_in("day", self.day, 0)
         if self.seasons and self.day_of_year is None:
             raise ValueError("seasons=True sets the foliage by the date: give a day_of_year too")
         if self.grass_seasons and self.day_of_year is None:

@@ -36,7 +36,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym._checks import check_finite, check_positive, is_number
+from sfa_gym._checks import check_finite, check_positive, check_positive_int, is_number
 from sfa_gym._types import Pose
 from sfa_gym.geometry import Rectangle, check_rectangle, grow_rectangle, wrap_angle
 from sfa_gym.recording.ordering import grid_order
@@ -595,8 +595,7 @@ class GridPositions:
                 cells dividing them. An env without ``grid_positions`` gives its
                 ``arena_bounds``.
         """
-        if isinstance(self.n, bool) or not isinstance(self.n, int | np.integer) or self.n < 1:
-            raise ValueError(f"n must be a positive int, got {self.n!r}")
+        check_positive_int("n", self.n)
         if self.order not in ("raster", "serpentine", "hilbert"):
             raise ValueError(
                 f"order must be 'raster', 'serpentine' or 'hilbert', got {self.order!r}"

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 import sfa_gym
-from sfa_gym._checks import check_positive_int
+from sfa_gym._checks import check_int_in, check_positive_int
 from sfa_gym.files import strict_json, write_atomic, write_json_atomic
 from sfa_gym.recording.drivers import Driver, GridPositions, env_attribute
 from sfa_gym.recording.runfile import (
@@ -355,8 +355,7 @@ def record(
     _check_out_dir(directory)
     check_positive_int("chunk_size", chunk_size)
     check_positive_int("n_steps", n_steps, none=True)
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ValueError(f"seed must be an int >= 0, got {seed!r}")
+    check_int_in("seed", seed, 0)
     if not isinstance(driver, Driver | GridPositions):
         raise TypeError(
             "driver must be a sfa_gym.recording.drivers.Driver or GridPositions, "

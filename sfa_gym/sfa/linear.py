@@ -37,6 +37,7 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.exceptions import NotFittedError
 from sklearn.utils.validation import validate_data
 
+from sfa_gym._checks import check_positive_int
 from sfa_gym.sfa._moments import Moments, MomentStats
 from sfa_gym.sfa._parallel import single_threaded_blas
 
@@ -215,9 +216,7 @@ class SFA(TransformerMixin, BaseEstimator):
             self.__dict__.pop(name, None)
 
     def _check_params(self) -> None:
-        k = self.n_components
-        if k is not None and (isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1):
-            raise ValueError(f"n_components must be a positive int or None, got {k!r}")
+        check_positive_int("n_components", self.n_components, none=True)
         if not (isinstance(self.rank_tol, float | int) and 0 <= self.rank_tol < 1):
             raise ValueError(f"rank_tol must be a float in [0, 1), got {self.rank_tol!r}")
 

@@ -53,6 +53,7 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils import Tags
 from sklearn.utils.validation import check_is_fitted
 
+from sfa_gym._checks import check_positive_int
 from sfa_gym._types import check_panoramas, check_views
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.rotation import (
@@ -178,9 +179,7 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         for i, spec in enumerate(layers, start=1):
             if not isinstance(spec, LayerSpec):
                 raise TypeError(f"layers[{i - 1}] must be a LayerSpec, got {type(spec).__name__}")
-        k = self.n_outputs
-        if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
-            raise ValueError(f"n_outputs must be a positive int, got {k!r}")
+        k = check_positive_int("n_outputs", self.n_outputs)
         if k > layers[-1].node_out_dim:
             raise ValueError(
                 f"n_outputs={k} exceeds the top layer's output dimension {layers[-1].node_out_dim}"
@@ -194,16 +193,12 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
             raise ValueError(f"dtype must be 'float32' or 'float64', got {self.dtype!r}")
         if self.rank_tol is not None and not (0 <= self.rank_tol < 1):
             raise ValueError(f"rank_tol must be in [0, 1) or None, got {self.rank_tol!r}")
-        b = self.batch_size
-        if b is not None and (isinstance(b, bool) or not isinstance(b, int | np.integer) or b < 1):
-            raise ValueError(f"batch_size must be a positive int or None, got {b!r}")
+        check_positive_int("batch_size", self.batch_size, none=True)
         if not self.memory_mb > 0:
             raise ValueError(f"memory_mb must be positive, got {self.memory_mb!r}")
         if not self.cache_mb >= 0:
             raise ValueError(f"cache_mb must be >= 0, got {self.cache_mb!r}")
-        j = self.n_jobs
-        if j is not None and (isinstance(j, bool) or not isinstance(j, int | np.integer) or j < 1):
-            raise ValueError(f"n_jobs must be a positive int or None, got {j!r}")
+        check_positive_int("n_jobs", self.n_jobs, none=True)
         return layers
 
     def _grids(self, layers: list[LayerSpec], height: int, width: int) -> list[tuple[int, int]]:

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sfa_gym._checks import check_positive_int
 from sfa_gym.sfa.expansion import n_quadratic_features
 
 __all__ = ["LayerSpec", "MAX_NODE_DIM", "layer_grids", "describe"]
@@ -65,10 +66,7 @@ class LayerSpec:
         object.__setattr__(self, "field", _pair(self.field, "field"))
         object.__setattr__(self, "stride", _pair(self.stride, "stride"))
         for name in ("reduce_dim", "out_dim"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 1:
-                raise ValueError(f"{name} must be a positive int, got {v!r}")
-            object.__setattr__(self, name, int(v))
+            object.__setattr__(self, name, check_positive_int(name, getattr(self, name)))
         if self.out_dim > MAX_NODE_DIM:
             raise ValueError(
                 f"out_dim must be at most {MAX_NODE_DIM} (node dimensions are capped for "

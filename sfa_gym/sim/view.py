@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym._checks import check_positive_int
 from sfa_gym.sim import gl
 
 gl.configure()
@@ -60,8 +61,7 @@ class TopDownView:
     """
 
     def __init__(self, model: mujoco.MjModel, size: int) -> None:
-        if isinstance(size, bool) or not isinstance(size, int) or size < 1:
-            raise ValueError(f"render_size must be a positive int, got {size!r}")
+        check_positive_int("render_size", size)
         gl.check_framebuffer(size, size, f"render_size={size}")
         self.model = model
         self.size = size

@@ -50,6 +50,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sfa_gym._checks import check_finite, check_int_in
 from sfa_gym.sim.camera.projection import PanoramaSpec
 
 if TYPE_CHECKING:
@@ -76,26 +77,11 @@ _MAX_IMAGE_SIZE = 4096
 _MAX_PANORAMA_SIDE = 1 << 14
 
 
-def _number(name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ValueError(f"MirrorSpec.{name} must be a number, got {value!r}")
-    if not math.isfinite(float(value)):
-        raise ValueError(f"MirrorSpec.{name} must be finite, got {value!r}")
-    return float(value)
-
-
-def _integer(name: str, value: object, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ValueError(f"MirrorSpec.{name} must be an int, got {value!r}")
-    if not low <= value <= high:
-        raise ValueError(f"MirrorSpec.{name} must be in [{low}, {high}], got {value!r}")
-    return int(value)
-
-
 def _pair(name: str, value: object) -> tuple[float, float]:
     if not isinstance(value, tuple | list) or len(value) != 2:
         raise ValueError(f"MirrorSpec.{name} must be a pair of numbers, got {value!r}")
-    return _number(name, value[0]), _number(name, value[1])
+    low, high = (check_finite(f"MirrorSpec.{name}", v) for v in value)
+    return low, high
 
 
 @dataclass(frozen=True)
@@ -151,13 +137,13 @@ class MirrorSpec:
     view_scale: float = 0.5
 
     def __post_init__(self) -> None:
-        xi = _number("xi", self.xi)
+        xi = check_finite("MirrorSpec.xi", self.xi)
         if not 0.0 <= xi <= 1.0:
             raise ValueError(f"MirrorSpec.xi must be in [0, 1], got {self.xi!r}")
-        gamma = _number("gamma", self.gamma)
+        gamma = check_finite("MirrorSpec.gamma", self.gamma)
         if gamma <= 0.0:
             raise ValueError(f"MirrorSpec.gamma must be > 0 pixels, got {self.gamma!r}")
-        size = _integer("image_size", self.image_size, 16, _MAX_IMAGE_SIZE)
+        size = check_int_in("MirrorSpec.image_size", self.image_size, 16, _MAX_IMAGE_SIZE)
         centre = ((size - 1) / 2.0,) * 2 if self.centre is None else _pair("centre", self.centre)
         if not all(0.0 <= c <= size - 1 for c in centre):
             raise ValueError(
@@ -174,8 +160,8 @@ class MirrorSpec:
                 f"{-_MAX_ELEVATION_DEG:g} <= low < high < {limit:.4g} degrees (asin(xi) and the "
                 f"view panorama's reach), got {self.elevation_range_deg!r}"
             )
-        _integer("panorama_width", self.panorama_width, 1, _MAX_PANORAMA_SIDE)
-        _integer("panorama_height", self.panorama_height, 1, _MAX_PANORAMA_SIDE)
+        check_int_in("MirrorSpec.panorama_width", self.panorama_width, 1, _MAX_PANORAMA_SIDE)
+        check_int_in("MirrorSpec.panorama_height", self.panorama_height, 1, _MAX_PANORAMA_SIDE)
         u_low, u_high = _pair("unwarp_elevation_deg", self.unwarp_elevation_deg)
         if not low <= u_low < u_high <= high:
             raise ValueError(
@@ -187,9 +173,9 @@ class MirrorSpec:
                 f"MirrorSpec.unwarp_rows must be one of {list(get_args(UnwarpRows))}, "
                 f"got {self.unwarp_rows!r}"
             )
-        _integer("supersample", self.supersample, 1, 4)
-        _integer("n_views", self.n_views, 3, 64)
-        scale = _number("view_scale", self.view_scale)
+        check_int_in("MirrorSpec.supersample", self.supersample, 1, 4)
+        check_int_in("MirrorSpec.n_views", self.n_views, 3, 64)
+        scale = check_finite("MirrorSpec.view_scale", self.view_scale)
         if not 0.25 <= scale <= 4.0:
             raise ValueError(f"MirrorSpec.view_scale must be in [0.25, 4], got {self.view_scale!r}")
         radii = tuple(_radius(xi, gamma, math.radians(e)) for e in (low, high, u_low, u_high))

@@ -51,6 +51,8 @@ from typing import Literal, get_args
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym._checks import check_int_in
+
 __all__ = ["PanoramaSpec", "ViewDirections", "camera_mjcf"]
 
 ViewDirections = Literal["compass", "rover"]
@@ -69,13 +71,6 @@ _MAX_SUPERSAMPLE = 8
 # like MuJoCo's builtin "gradient" sky at 256 texels a face) is sampled without filtering; see
 # _smooth_skyboxes.
 _SMOOTH_SKY_STEP = 1
-
-
-def _check_int(name: str, value: object, low: int, high: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ValueError(f"PanoramaSpec.{name} must be an int, got {value!r}")
-    if not low <= value <= high:
-        raise ValueError(f"PanoramaSpec.{name} must be in [{low}, {high}], got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -104,10 +99,10 @@ class PanoramaSpec:
     views: ViewDirections = "compass"
 
     def __post_init__(self) -> None:
-        _check_int("width", self.width, 1, 1 << 16)
-        _check_int("height", self.height, 1, 1 << 16)
-        _check_int("n_views", self.n_views, 3, _MAX_VIEWS)
-        _check_int("supersample", self.supersample, 1, _MAX_SUPERSAMPLE)
+        check_int_in("PanoramaSpec.width", self.width, 1, 1 << 16)
+        check_int_in("PanoramaSpec.height", self.height, 1, 1 << 16)
+        check_int_in("PanoramaSpec.n_views", self.n_views, 3, _MAX_VIEWS)
+        check_int_in("PanoramaSpec.supersample", self.supersample, 1, _MAX_SUPERSAMPLE)
         vfov = self.vfov_deg
         if isinstance(vfov, bool) or not isinstance(vfov, int | float | np.integer | np.floating):
             raise ValueError(f"PanoramaSpec.vfov_deg must be a number, got {vfov!r}")

@@ -38,6 +38,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from sfa_gym._checks import check_int_in
 from sfa_gym.sim.camera.fog import eye_depths
 
 if TYPE_CHECKING:  # imported where used: MUJOCO_GL must be set before mujoco is imported
@@ -117,8 +118,7 @@ class SunShadows:
         import mujoco
 
         for name, value in (("texels", texels), ("moving_texels", moving_texels)):
-            if isinstance(value, bool) or not isinstance(value, int) or value < 16:
-                raise ValueError(f"{name} must be an int >= 16, got {value!r}")
+            check_int_in(name, value, 16)
         self.sun = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_LIGHT, "sun")
         if self.sun < 0:
             raise ValueError("shadows need the sun: the model has no light named 'sun'")

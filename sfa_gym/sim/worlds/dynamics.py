@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym._checks import is_number
+from sfa_gym._checks import check_int_in, is_number
 from sfa_gym.sim.camera.fog import check_visibility
 from sfa_gym.sim.worlds.ground import check_ground
 
@@ -201,10 +201,7 @@ class DynamicsSpec:
         check_value(
             0.0 <= self.overcast <= 1.0, f"overcast must lie in [0, 1], got {self.overcast!r}"
         )
-        check_value(
-            isinstance(self.day, int) and not isinstance(self.day, bool) and self.day >= 0,
-            f"day must be an integer >= 0, got {self.day!r}",
-        )
+        check_int_in("day", self.day, 0)
         check_value(
             isinstance(self.arrangement, int)
             and not isinstance(self.arrangement, bool)

@@ -19,6 +19,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from sfa_gym._checks import check_int_in
+
 __all__ = [
     "FOOTPRINT",
     "MOVER_KINDS",
@@ -71,10 +73,7 @@ class MoverSpec:
         check_value(
             self.kind in MOVER_KINDS, f"mover kind must be one of {MOVER_KINDS}, got {self.kind!r}"
         )
-        check_value(
-            isinstance(self.count, int) and not isinstance(self.count, bool) and self.count >= 0,
-            f"mover count must be an integer >= 0, got {self.count!r}",
-        )
+        check_int_in("mover count", self.count, 0)
         if self.kind == "pedestrian" and self.offset is None:
             object.__setattr__(self, "offset", _WALK)
         check_value(
@@ -126,12 +125,7 @@ class RoadSpec:
                 isinstance(value, int | float) and math.isfinite(value) and value > 0,
                 f"road {name} must be a positive number of metres, got {value!r}",
             )
-        check_value(
-            isinstance(self.car_lanes, int)
-            and not isinstance(self.car_lanes, bool)
-            and self.car_lanes >= 1,
-            f"road car_lanes must be an integer >= 1, got {self.car_lanes!r}",
-        )
+        check_int_in("road car_lanes", self.car_lanes, 1)
         for kind, width in (("cyclist", self.cycle_path / 2), ("car", self.lane_width)):
             check_value(
                 width >= 2 * FOOTPRINT[kind][1],

@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from sfa_gym._checks import check_int_in
 from sfa_gym._json_types import dataclass_from_json
 from sfa_gym.sim.worlds.data import envs_dir
 from sfa_gym.sim.worlds.dynamics import DynamicsSpec
@@ -397,8 +398,7 @@ class BuildingsSpec:
 
     def __post_init__(self) -> None:
         _check_range(self.sides, "buildings sides", low=0)
-        if isinstance(self.designs, bool) or not isinstance(self.designs, int) or self.designs < 0:
-            raise ValueError(f"buildings designs must be an integer >= 0, got {self.designs!r}")
+        check_int_in("buildings designs", self.designs, 0)
         if self.sides[1] > 4:
             raise ValueError(f"buildings sides must lie in [0, 4], got {list(self.sides)}")
         _check_range(self.storeys, "buildings storeys", low=1)

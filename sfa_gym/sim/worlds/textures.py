@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym._checks import is_number
+from sfa_gym._checks import check_int_in, is_number
 
 RGB = tuple[float, float, float]
 
@@ -75,8 +75,7 @@ class TexturesSpec:
                 f"textures tile_m must lie in [0.4, 20] metres (one paving slab to a few "
                 f"metres of ground), got {self.tile_m!r}"
             )
-        if isinstance(self.cracks, bool) or not isinstance(self.cracks, int) or self.cracks < 0:
-            raise ValueError(f"textures cracks must be an int >= 0, got {self.cracks!r}")
+        check_int_in("textures cracks", self.cracks, 0)
         if not (is_number(self.canopy_gaps) and 0.0 <= self.canopy_gaps <= 0.9):
             raise ValueError(f"textures canopy_gaps must lie in [0, 0.9], got {self.canopy_gaps!r}")
 
