@@ -3,7 +3,7 @@ positives and the batch's other views as negatives (as in CPC, Oord et al. 2018,
 time-contrastive networks of Sermanet et al. 2018), the representation learning that replaced
 SFA in much of the field.
 
-The network (:class:`sfa_gym.deep_features.CircularEncoder`) maps each view to ``output_dim``
+The network (:class:`sfa_gym.deep_methods.CircularEncoder`) maps each view to ``output_dim``
 outputs. Each training step takes a batch of pairs of neighbours in time (rows ``t`` and ``t + 1``
 of one sequence), projects the outputs on the unit sphere and scores every ``t`` against every
 ``t + 1`` of the batch by cosine similarity over ``TEMPERATURE``; the loss is the cross-entropy
@@ -12,7 +12,7 @@ of picking each view's own neighbour, both ways.
 Rotation: a simulated rotation of the panorama (a circular shift of its columns) is the
 augmentation that would keep heading out of the features; the network is invariant to every such
 shift by construction (circular convolutions pooled by |DFT| along the width: see
-:mod:`sfa_gym.deep_features`), which is that augmentation applied exhaustively, so no shifted
+:mod:`sfa_gym.deep_methods`), which is that augmentation applied exhaustively, so no shifted
 copies are fed and the features of a place are the same at every heading.
 
 The features are the outputs standardised over the training views (zero mean, unit variance),
@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym.deep_features import NetworkArgs, TemporalNetworkMethod, torch
+from sfa_gym.deep_methods import NetworkArgs, TemporalNetworkMethod, torch
 
 TEMPERATURE = 0.1
 """Divides the cosine similarities before the softmax (SimCLR's usual value)."""
@@ -41,7 +41,7 @@ TEMPERATURE = 0.1
 
 @dataclass(frozen=True)
 class Args(NetworkArgs):
-    """:class:`~sfa_gym.deep_features.NetworkArgs`: the network and its training."""
+    """:class:`~sfa_gym.deep_methods.NetworkArgs`: the network and its training."""
 
 
 def info_nce(before: torch.Tensor, after: torch.Tensor) -> torch.Tensor:
@@ -60,7 +60,7 @@ class TemporalContrastive(TemporalNetworkMethod):
     fields of :class:`Args`.
 
     Attributes (after ``fit``, besides those of
-    :class:`~sfa_gym.deep_features.TemporalNetworkMethod`):
+    :class:`~sfa_gym.deep_methods.TemporalNetworkMethod`):
         mean_, scale_: ``(output_dim,)`` the outputs' mean and standard deviation over the
             training views.
     """

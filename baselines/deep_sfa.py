@@ -1,9 +1,9 @@
 """Deep slow features: a small CNN trained with the slowness objective through differentiable
 whitening (PowerSFA-style; Schüler, Hlynsson & Wiskott 2019).
 
-The network (:class:`sfa_gym.deep_features.CircularEncoder`: circular convolutions, pooled over
+The network (:class:`sfa_gym.deep_methods.CircularEncoder`: circular convolutions, pooled over
 the width by |DFT|, so a simulated rotation of a panorama leaves its features unchanged; why
-there and not by averaging rotated copies: :mod:`sfa_gym.deep_features`) maps each view to
+there and not by averaging rotated copies: :mod:`sfa_gym.deep_methods`) maps each view to
 ``output_dim`` outputs. Each training step takes a batch of pairs of neighbours in time (rows
 ``t`` and ``t + 1`` of one sequence), whitens the outputs of all the batch's views with their
 own covariance (the whitening layer, differentiable, so the gradient sees that the outputs must
@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym.deep_features import NetworkArgs, TemporalNetworkMethod, torch
+from sfa_gym.deep_methods import NetworkArgs, TemporalNetworkMethod, torch
 from sfa_gym.sfa.linear import SFA
 
 RIDGE = 1e-4
@@ -41,7 +41,7 @@ RIDGE = 1e-4
 
 @dataclass(frozen=True)
 class Args(NetworkArgs):
-    """:class:`~sfa_gym.deep_features.NetworkArgs`: the network and its training."""
+    """:class:`~sfa_gym.deep_methods.NetworkArgs`: the network and its training."""
 
 
 def whiten(outputs: torch.Tensor) -> torch.Tensor:
@@ -59,7 +59,7 @@ class DeepSFA(TemporalNetworkMethod):
     fields of :class:`Args`.
 
     Attributes (after ``fit``, besides those of
-    :class:`~sfa_gym.deep_features.TemporalNetworkMethod`):
+    :class:`~sfa_gym.deep_methods.TemporalNetworkMethod`):
         sfa_: the linear SFA that orders the network's outputs by slowness.
     """
 

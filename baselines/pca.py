@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 import sklearn.decomposition
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.exceptions import NotFittedError
 from tqdm.auto import tqdm
@@ -101,9 +101,7 @@ class PCA(TransformerMixin, BaseEstimator):
 
     @property
     def capabilities(self) -> Capabilities:
-        return Capabilities(
-            regressor=self.regressor, extra_regressors=("map",), transform_rotations=True
-        )
+        return Capabilities(regressor=self.regressor, extra_regressors=("map",))
 
     def fit(self, views: NDArray[np.uint8], sequence_ids: NDArray | None = None) -> PCA:
         """Fit on training ``views (N, H, W, 3)`` uint8 (their order is irrelevant to PCA)."""
@@ -154,14 +152,17 @@ class PCA(TransformerMixin, BaseEstimator):
             out[part] = self.pca_.transform(shrink_views(views[part], self.shrink))
         return out
 
-    def transform_rotations(self, panoramas: NDArray[np.uint8], step: int) -> NDArray[np.float64]:
-        """Features of every ``step``-column rotated view of each panorama ``(L, H, W, 3)``
-        uint8, views as wide as the fitted ones: ``(L, W // step, n_components)``. The shrunk
-        views come from a few shrunk copies of each panorama (:func:`sfa_gym.shrink.
-        shrunk_rotations`, the same bytes as shrinking each view), so no view is built or
-        sent to this worker; each panorama's views are projected together, as ``transform``
-        does when given them. (Not ``rotation_indices``: a BLAS product's last bits can depend
-        on its row count, so projecting only some views could move the features.)"""
+    def transform_rotations(
+        self, panoramas: NDArray[np.uint8], step: int, indices: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """Features of the ``step``-column rotated views ``indices`` (all by default) of each
+        panorama ``(L, H, W, 3)`` uint8, views as wide as the fitted ones: ``(L, K',
+        n_components)``; the fast path of :mod:`sfa_gym.features`. The shrunk views come from a
+        few shrunk copies of each panorama (:func:`sfa_gym.shrink.shrunk_rotations`, the same
+        bytes as shrinking each view), so no view is built; each panorama's views are projected
+        together, as ``transform`` does when given them, and ``indices`` picked from them (a
+        BLAS product's last bits can depend on its row count, so projecting only some views
+        could move the features)."""
         if not hasattr(self, "pca_"):
             raise NotFittedError("PCA is not fitted yet; call fit(views) first")
         panoramas = check_panoramas(panoramas, self.input_shape_, "PCA")
@@ -174,7 +175,7 @@ class PCA(TransformerMixin, BaseEstimator):
             flat = views.reshape(k, -1) / 255.0
             for part in iter_chunks(k, self.chunk):
                 out[i, part] = self.pca_.transform(flat[part])
-        return out
+        return out if indices is None else out[:, indices]
 
 
 METHOD = PCA

@@ -68,9 +68,7 @@ class RawPixels(TransformerMixin, BaseEstimator):
 
     @property
     def capabilities(self) -> Capabilities:
-        return Capabilities(
-            regressor=self.regressor, transform_rotations=True, rotation_indices=True
-        )
+        return Capabilities(regressor=self.regressor)
 
     def fit(self, views: NDArray[np.uint8], sequence_ids: NDArray | None = None) -> RawPixels:
         """Record ``input_shape_`` (nothing to learn); ``views (N, H, W, 3)`` uint8."""
@@ -90,8 +88,8 @@ class RawPixels(TransformerMixin, BaseEstimator):
     ) -> NDArray[np.float64]:
         """Features of the ``step``-column rotated views ``indices`` (all by default) of each
         panorama ``(L, H, W, 3)`` uint8, views as wide as the fitted ones: ``(L, K', height *
-        width * 3)``, the same values as ``transform`` of each view
-        (:func:`sfa_gym.shrink.shrunk_rotations`: no view is built or sent to this worker)."""
+        width * 3)``, the same values as ``transform`` of each view; the fast path of
+        :mod:`sfa_gym.features` (:func:`sfa_gym.shrink.shrunk_rotations`: no view is built)."""
         if not hasattr(self, "input_shape_"):
             raise NotFittedError("RawPixels is not fitted yet; call fit(views) first")
         panoramas = check_panoramas(panoramas, self.input_shape_, "RawPixels")

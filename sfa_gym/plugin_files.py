@@ -20,6 +20,7 @@ __all__ = [
     "Kind",
     "OPT_IN_BUILTINS",
     "PluginError",
+    "builtin",
     "default_baseline_files",
     "default_plugin_folder",
     "list_plugin_files",
@@ -103,6 +104,16 @@ def resolve_plugin(source: str | os.PathLike[str], kind: Kind = "method") -> Pat
     if path.suffix != ".py":
         raise ValueError(f"a {what} file must be a .py file, got {path}")
     return path
+
+
+def builtin(source: str | os.PathLike[str], kind: Kind = "method") -> bool:
+    """Whether the plug-in ``source`` is one of the package's own files (its resolved path lies
+    in the built-in folder of its kind: :func:`default_plugin_folder`)."""
+    folder, _ = default_plugin_folder()
+    if folder is None:
+        return False
+    home = folder / "controllers" if kind == "controller" else folder
+    return resolve_plugin(source, kind).parent == home.resolve()
 
 
 def missing_extra(error: BaseException) -> str | None:

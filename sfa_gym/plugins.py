@@ -6,100 +6,65 @@ the repository's ``baselines/`` (controllers in ``baselines/controllers/``); ins
 wheel, the package carries the same files as ``sfa_gym/plugins_data/``. Only the named file is
 executed: not its folder as a package, not its neighbours, and nothing is added to ``sys.path``.
 
-**Trust.** A plug-in is untrusted code. :func:`load_method` (the leaderboard's path) runs it in
-a worker process of its own (:mod:`sfa_gym.sandbox`) and returns a proxy
-(:class:`~sfa_gym.sandbox.IsolatedMethod`; controllers:
-:class:`~sfa_gym.sandbox.IsolatedController`):
+**Where it runs.** :func:`~sfa_gym.sandbox.isolation` decides, for every loader
+(:func:`load_method`, :func:`load_controller`, :func:`describe`, :func:`load_plugins`): the
+package's own files run in the evaluator's process (:class:`~sfa_gym.sandbox.InProcess`, with
+one BLAS thread as a worker has); any other file is untrusted code and runs in a worker process
+of its own (:mod:`sfa_gym.sandbox`), whose proxy looks like the method or controller:
 
-- the worker is sent only what the protocol gives a plug-in: views and panoramas without their
-  poses; for a controller its observation (features, and panoramas for one that asks for
-  them) and the rover's own sensors. The env,
-  poses and the evaluator's objects never enter its address space (``sys._getframe`` and
-  ``gc`` find only the worker's own objects), and scoring happens in the evaluator;
+- the worker is sent only what the protocol gives a plug-in: views without their poses; for a
+  controller its observation and the rover's own sensors. The env, poses and the evaluator's
+  objects never enter its address space, and scoring happens in the evaluator;
 - what comes back is JSON-type values and arrays of numbers only, never unpickled objects;
+  features are checked (shape, finite, bounded);
 - every call has a wall-clock limit (:class:`~sfa_gym.sandbox.Limits`: ``fit`` 30 min, one
   ``transform`` 10 min, ``act`` 1 s, ...); past it the worker is killed and
   :class:`~sfa_gym.sandbox.PluginTimeout` names the plug-in, the call and the limit; a worker
   that dies raises :class:`~sfa_gym.sandbox.PluginCrashed` with its exit code;
-- a sweep plans its tasks (labels, task identities, the check of ``--method-args``) from what
-  the worker reports of the file's ``Args`` (:func:`~sfa_gym.sandbox.describe_plugin`): the
-  evaluator never imports the file, not even to read its arguments;
-- the worker's address space has a memory limit (``Limits.memory_mb``, default three quarters
-  of the machine's memory, divided among the tasks a sweep runs at once); an allocation past
-  it raises :class:`~sfa_gym.sandbox.PluginOutOfMemory`, naming the plug-in and the limit;
+- a sweep plans its tasks from the worker's report of the file's ``Args`` (:func:`describe`);
+- the worker's address space has a memory limit (``Limits.memory_mb``: else
+  :class:`~sfa_gym.sandbox.PluginOutOfMemory`);
 - where bubblewrap (``bwrap``) works, the worker sees a read-only filesystem with only its
   scratch folder writable, the render cache hidden, no network and its own PID namespace;
   elsewhere it is a plain child process in a scratch folder (said once on stderr).
 
-:func:`load_plugins` (the baselines of ``sfa-gym localize`` and ``navigate``) runs each file in
-a worker the same way. :func:`load_method_plugin`, :func:`load_controller_plugin` and
-``load_method(..., isolated=False)`` import the file into the calling process, with its full
-rights: for files you trust (your own, while you debug them).
+:func:`load_method_plugin` and :func:`load_controller_plugin` import a file into the calling
+process, with its full rights: for files you trust.
 
-Every plug-in file defines at module level
-
-- ``Args``: a dataclass (frozen, by convention) of its arguments, each with a default, a type and
-  a docstring under the field. The loader builds ``Args`` from JSON-type keyword arguments (the
-  leaderboard's ``--method-args n_bands=4``, a result file's ``args``), refusing unknown names and
-  values of the wrong type with a :class:`ValueError` naming the file, the field and the value
-  (ints are accepted for float fields, lists for tuples); ``--help`` on the command line lists
-  the fields with their docstrings. Every field filled in is what a result records.
+**The contract.** Every plug-in file defines at module level ``Args``: a dataclass (frozen, by
+convention) of its arguments, each with a default, a type and a docstring under the field. The
+loader builds ``Args`` from JSON-type keyword arguments (``--method-args n_bands=4``, a result
+file's ``args``), refusing unknown names and values of the wrong type with a
+:class:`ValueError` naming the file, the field and the value; ``--help`` lists the fields.
 
 A **feature method** file also defines ``make_method(**args)`` (or ``METHOD``, a class called
 with the arguments), which returns an unfitted method with
 
 - ``name: str``: the leaderboard label;
 - ``fit(views (N, H, W, 3) uint8, sequence_ids=None) -> self``: unsupervised fit; the row order
-  of ``views`` is the time order of the training run (what SFA learns from); ``sequence_ids``
-  ``(N,)`` optionally marks separate sequences;
+  of ``views`` is the time order of the training run; ``sequence_ids`` ``(N,)`` optionally
+  marks separate sequences;
 - ``transform(views (N, H, W, 3) uint8) -> (N, k) float``;
-- after ``fit``, ``input_shape_`` ``(H, W, 3)`` (what
-  :class:`sfa_gym.wrappers.SlowFeatureObservation` needs of a feature model).
+- optionally ``capabilities``, a :class:`~sfa_gym.capabilities.Capabilities` (a property when
+  a parameter decides it): ``rotation_invariant`` (column statistics: each full-width panorama
+  is fitted on and transformed once), ``regressor`` (the regression it pairs with, default
+  ``"linear"``) and ``extra_regressors`` (reported besides by ``sfa-gym localize``).
 
-Methods follow scikit-learn's estimator conventions: the parameters are the ``__init__``
-arguments, stored unchanged (so ``get_params``, ``set_params`` and ``sklearn.base.clone`` work:
-subclass ``sklearn.base.BaseEstimator`` and ``TransformerMixin``), checked in ``fit``, and the
-fitted state ends in ``_``. The built-in methods' ``__init__`` takes the fields of their ``Args``.
-
-Optional capabilities are declared in one way: a class attribute ``capabilities`` (a property
-when a parameter decides it), a :class:`~sfa_gym.capabilities.Capabilities` with
-
-- ``fit_rotations``: has ``fit_rotations(panoramas)``, fitting on every rotation of each panorama
-  with its own ``rotation`` (and ``fit_rotations(panoramas, appearances=A)`` where a protocol
-  trains on ``A`` appearances of each location: the outdoor protocol's
-  ``train_also_order="rotations"``);
-- ``transform_rotations``: has ``transform_rotations(panoramas, step) -> (L, W // step, k)``;
-- ``rotation_indices``: its ``transform_rotations(panoramas, step, indices)`` also takes the
-  rotations a protocol scores and computes only those, ``(L, len(indices), k)``;
-- ``rotation_invariant``: column statistics; each full-width panorama is transformed once;
-- ``regressor``: the regression the features are paired with (default ``"linear"``);
-- ``extra_regressors``: regressions ``sfa-gym localize`` reports besides those two.
-- ``panoramas`` (controllers): acts on rendered panoramas (below).
-
-The library reads them with :func:`~sfa_gym.capabilities.get_capabilities` and nothing else; a
-method that declares none gets the defaults (no shortcut, linear regression).
+Methods follow scikit-learn's estimator conventions (subclass ``BaseEstimator`` and
+``TransformerMixin``; the fitted state ends in ``_``, ``input_shape_`` among it).
 
 A **controller** file also defines ``make_controller(rover, weights, **args)``: a fresh
 controller for a :class:`~sfa_gym.navigation.sensors.Rover` and the cost weights of the features
-``(k,)`` (see :func:`~sfa_gym.navigation.feature_gradient.slowness_weights`), with
-``name: str``, ``reset(obs, info)`` at the start of an episode and ``act(obs, info) -> (3,)
-float32`` (forward speed m/s, yaw rate rad/s, stop if > 0) every step. ``obs`` holds
-``"features"`` and ``"goal_features"``; ``info`` only the rover's own sensors
-(:class:`~sfa_gym.navigation.sensors.SensorsOnly`). A controller that acts on the images
-themselves declares it in the same one way, ``capabilities = Capabilities(panoramas=True)``:
-the episode runner then renders the camera's panorama at every step (MuJoCo, not the feature
-field) and ``obs`` also holds ``"panorama"`` and ``"goal_panorama"`` (``(H, W, 3)`` uint8, the
-goal's rendered once at the goal pose at the start of the episode), with no pose; columns are
-fixed directions of the rover (column ``c`` looks at ``heading + 2*pi*c/W``), so a controller
-finds the heading difference to the goal panorama itself (a visual compass:
-:mod:`sfa_gym.navigation.homing`). Rendering makes the steps about ten times slower
-(docs/notes/2026-11-27-homing.md).
+``(k,)``, with ``name: str``, ``reset(obs, info)`` at the start of an episode and ``act(obs,
+info) -> (3,) float32`` (forward speed m/s, yaw rate rad/s, stop if > 0) every step. ``obs``
+holds ``"features"`` and ``"goal_features"``; ``info`` only the rover's own sensors
+(:class:`~sfa_gym.navigation.sensors.SensorsOnly`). One that declares
+``capabilities = Capabilities(panoramas=True)`` also gets ``"panorama"`` and
+``"goal_panorama"`` (``(H, W, 3)`` uint8, rendered; column ``c`` looks at ``heading +
+2*pi*c/W``), at about ten times the cost per step.
 
 A file that does not follow this contract raises :class:`PluginError`, naming the file and what
 is missing.
-
-The module is longer than most because its docstring is the plug-in contract, the reference
-the docs and the plug-in files point to.
 """
 
 from __future__ import annotations
@@ -146,10 +111,12 @@ __all__ = [
     "check_views",
     "close_plugins",
     "default_plugin_folder",
+    "describe",
     "file_sha256",
     "get_capabilities",
     "iter_chunks",
     "list_plugin_files",
+    "load_controller",
     "load_controller_plugin",
     "load_method",
     "load_method_plugin",
@@ -451,33 +418,69 @@ def load_controller_plugin(source: str | os.PathLike[str]) -> ControllerPlugin:
     return load_plugin(source, "controller")  # type: ignore[return-value]
 
 
+def _runs_here(source: str | os.PathLike[str], kind: Kind) -> bool:
+    from sfa_gym.sandbox import isolation
+
+    return isolation(**{kind: source}) in ("built-in", "in-process")
+
+
 def load_method(
     source: str | os.PathLike[str],
     args: Mapping[str, Any] | None = None,
     *,
-    isolated: bool = True,
     limits: Any = None,
     hidden: Sequence[str | os.PathLike[str]] = (),
 ) -> FeatureMethod:
-    """A fresh, unfitted method from the plug-in ``source`` with ``args`` (JSON types).
-
-    Args:
-        isolated: run the plug-in in a worker process of its own
-            (:class:`~sfa_gym.sandbox.IsolatedMethod`: the trust model above; close it with
-            ``close()``); False: import it into this process (trusted code only).
-        limits: the time and memory limits of an isolated method (:class:`~sfa_gym.sandbox.Limits`).
-        hidden: folders an isolated method must not read (the render cache, the results).
+    """A fresh, unfitted method from the plug-in ``source`` with ``args`` (JSON types), in this
+    process or a worker with ``limits`` (:class:`~sfa_gym.sandbox.Limits`) that cannot read the
+    folders ``hidden`` (see the module docstring); close it with ``close()``.
 
     Raises:
         FileNotFoundError, ValueError, PluginError: see :func:`load_method_plugin` and
-            :meth:`Plugin.parse`. PluginTimeout, PluginCrashed: an isolated plug-in hung or died
-            while loading.
+            :meth:`Plugin.parse`. PluginTimeout, PluginCrashed: a worker hung or died while
+            loading.
     """
-    if isolated:
-        from sfa_gym.sandbox import IsolatedMethod
+    from sfa_gym.sandbox import InProcess, IsolatedMethod
 
-        return IsolatedMethod(source, args, limits, hidden)
-    return load_method_plugin(source)(**dict(args or {}))
+    if _runs_here(source, "method"):
+        return InProcess(load_method_plugin(source)(**dict(args or {})))  # type: ignore[return-value]
+    return IsolatedMethod(source, args, limits, hidden)
+
+
+def load_controller(
+    source: str | os.PathLike[str],
+    rover: Any,
+    weights: ArrayLike,
+    args: Mapping[str, Any] | None = None,
+    *,
+    limits: Any = None,
+    hidden: Sequence[str | os.PathLike[str]] = (),
+) -> Any:
+    """A fresh controller from the plug-in ``source`` for ``rover`` and cost ``weights``, in
+    this process or a worker, as :func:`load_method`; close it with ``close()``."""
+    from sfa_gym.sandbox import InProcess, IsolatedController
+
+    if _runs_here(source, "controller"):
+        return InProcess(load_controller_plugin(source)(rover, weights, args))
+    return IsolatedController(source, rover, weights, args, limits, hidden)
+
+
+def describe(
+    source: str | os.PathLike[str],
+    kind: Kind,
+    args: Mapping[str, Any] | None = None,
+    *,
+    limit: float,
+    hidden: Sequence[str | os.PathLike[str]] = (),
+) -> dict[str, Any]:
+    """What a sweep records of the plug-in ``source`` with ``args`` (:meth:`Plugin.describe`,
+    made once to run its factory's checks), read here or, for a file from outside, in a worker
+    within ``limit`` seconds (:func:`~sfa_gym.sandbox.describe_plugin`)."""
+    from sfa_gym.sandbox import describe_plugin
+
+    if _runs_here(source, kind):
+        return load_plugin(source, kind).describe(args, make=True)
+    return describe_plugin(source, kind, args, limit=limit, hidden=hidden)
 
 
 def load_plugins(
@@ -487,16 +490,13 @@ def load_plugins(
     package_dir: Path | None = None,
     hidden: Sequence[str | os.PathLike[str]] = (),
 ) -> list[tuple[FeatureMethod, tuple[str, ...]]]:
-    """The feature methods of the plug-in files in ``folder`` (default arguments), each with the
-    regressions ``sfa-gym localize`` evaluates it with: the linear one, the one it is paired
-    with and its extra ones (its :class:`~sfa_gym.capabilities.Capabilities`).
-
-    Each method runs in a worker process of its own, as on the leaderboard (the trust model
-    above; :data:`~sfa_gym.sandbox.IN_PROCESS` imports them here instead): close them with
-    :func:`close_plugins`. Hierarchical SFA (the built-in ``sfa.py``) is left out: the
-    protocols train it themselves, with their own ``--sfa.*`` settings. So is, with a line on
-    stderr, a file that needs an extra not installed (the deep methods without torch). From
-    the default folder, so are the methods that train for minutes
+    """The feature methods of the plug-in files in ``folder`` (default arguments, each loaded by
+    :func:`load_method`), each with the regressions ``sfa-gym localize`` evaluates it with: the
+    linear one, the one it is paired with and its extra ones. Close them with
+    :func:`close_plugins`. A method named ``hierarchical_sfa`` (the built-in ``sfa.py``) is left
+    out: the protocols train their own, with their ``--sfa.*`` settings, under that name. So
+    is, with a line on stderr, a file that needs an extra not installed (the deep methods
+    without torch). From the default folder, so are the methods that train for minutes
     (:func:`~sfa_gym.plugin_files.default_baseline_files`).
 
     Args:
@@ -504,19 +504,15 @@ def load_plugins(
         use_default: with ``folder=None``, load the :func:`default_plugin_folder` (saying on
             stderr which one when it is not the checkout's); without it, load nothing.
         package_dir: where ``sfa_gym`` is installed (for tests).
-        hidden: folders the workers must not read (the output folder with its renders, the
-            render cache).
+        hidden: folders the workers must not read (the output folder, the render cache).
 
     Raises:
         ValueError: ``folder`` is not a folder.
         PluginError, PluginTimeout, PluginCrashed: a file that cannot be loaded (the methods
             loaded before it are closed).
     """
-    from sfa_gym.sandbox import plugins_isolated
-
-    if folder is not None:
-        if not Path(folder).is_dir():
-            raise ValueError(f"--baselines {str(folder)!r} is not a folder")
+    if folder is not None and not Path(folder).is_dir():
+        raise ValueError(f"--baselines {str(folder)!r} is not a folder")
     default = folder is None and use_default
     if default:
         folder, origin = default_plugin_folder(package_dir)
@@ -529,15 +525,15 @@ def load_plugins(
     try:
         for path in files:
             try:
-                method = load_method(path, isolated=plugins_isolated(), hidden=hidden)
+                method = load_method(path, hidden=hidden)
             except PluginError as error:
                 extra = missing_extra(error)
                 if extra is None:
                     raise
                 print(f"sfa-gym: {path.name} left out: it needs sfa-gym[{extra}]", file=sys.stderr)
                 continue
-            if _is_hierarchical_sfa(method):
-                _close(method)
+            if method.name == "hierarchical_sfa":
+                method.close()  # type: ignore[attr-defined]
                 continue
             found = get_capabilities(method)
             methods.append((method, ("linear", found.regressor, *found.extra_regressors)))
@@ -547,19 +543,7 @@ def load_plugins(
     return methods
 
 
-def _is_hierarchical_sfa(method: Any) -> bool:
-    from sfa_gym.protocols.slow_features import SlowFeatureMethod
-
-    return bool(getattr(method, "hierarchical_sfa", False)) or isinstance(method, SlowFeatureMethod)
-
-
-def _close(method: Any) -> None:
-    close = getattr(method, "close", None)
-    if callable(close):
-        close()
-
-
 def close_plugins(methods: Sequence[tuple[FeatureMethod, Any]]) -> None:
-    """Stop the worker of every method of :func:`load_plugins` (in-process ones need nothing)."""
+    """Close every method of :func:`load_plugins` (stops the workers)."""
     for method, _ in methods:
-        _close(method)
+        method.close()  # type: ignore[attr-defined]

@@ -120,7 +120,7 @@ def test_a_capability_without_its_method_is_refused():
 
 def test_the_built_in_sfa_trains_the_settings_it_is_given():
     from eval.synthetic import synthetic_panoramas
-    from sfa_gym.protocols.features import fit_method, view_features
+    from sfa_gym.features import fit_method, view_features
 
     panoramas = synthetic_panoramas(8, 10, 40, seed=1)
     method = _method("sfa", network="tiny", node_dim=6, n_outputs=3)

@@ -14,7 +14,7 @@ from sklearn.exceptions import NotFittedError
 
 pytest.importorskip("torch")
 
-from sfa_gym.deep_features import neighbour_pairs  # noqa: E402
+from sfa_gym.deep_methods import neighbour_pairs  # noqa: E402
 from sfa_gym.plugins import get_capabilities, load_method_plugin  # noqa: E402
 from sfa_gym.recording.ordering import grid_order  # noqa: E402
 from sfa_gym.sim.camera import PanoramaSpec  # noqa: E402

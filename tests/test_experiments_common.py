@@ -12,7 +12,7 @@ from eval.synthetic import synthetic_panoramas
 from sfa_gym.cli.figures import quarter_outputs
 from sfa_gym.cli.localize import GridExperiment, TrajectoryExperiment
 from sfa_gym.protocols import grid
-from sfa_gym.protocols.features import fit_method, view_features
+from sfa_gym.features import fit_method, view_features
 from sfa_gym.protocols.settings import NETWORKS, NetworkName, SFASettings, WeightSharing
 from sfa_gym.protocols.slow_features import SlowFeatureMethod
 from sfa_gym.rotation import Rotation

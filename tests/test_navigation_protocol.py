@@ -98,7 +98,7 @@ def test_a_field_that_transforms_every_rotation_of_many_nodes_warns_with_the_cou
         def transform(self, views):
             return views.reshape(len(views), -1)[:, :2].astype(float)
 
-    with pytest.warns(UserWarning, match=r"per_view declares no rotation capability.*700,000"):
+    with pytest.warns(UserWarning, match=r"per_view is not rotation_invariant.*700,000"):
         navigation._warn_per_rotation(PerView(), 2000, 350)
     with warnings.catch_warnings():
         warnings.simplefilter("error")

@@ -16,6 +16,7 @@ from sfa_gym.navigation.field import FeatureField
 from sfa_gym.navigation.sensors import ROVER_SENSORS, Rover
 from sfa_gym.plugins import PluginError, load_method, load_method_plugin
 from sfa_gym.sandbox import (
+    InProcess,
     IsolatedController,
     IsolatedMethod,
     Limits,
@@ -57,10 +58,13 @@ def _views(n: int = 6) -> np.ndarray:
     return np.random.default_rng(0).integers(0, 256, (n, 8, 24, 3), dtype=np.uint8)
 
 
-def test_an_honest_plugin_gives_the_same_features_isolated():
+def test_an_honest_plugin_gives_the_same_features_isolated(tmp_path):
     views = _views(40)
-    inside = load_method_plugin(BAND_MEANS)(n_bands=4).fit(views)
-    with load_method(BAND_MEANS, {"n_bands": 4}) as isolated:
+    inside = load_method(BAND_MEANS, {"n_bands": 4}).fit(views)  # built-in: in process
+    assert isinstance(inside, InProcess)
+    outside = tmp_path / "band_means.py"  # the same file from outside: in a worker
+    outside.write_bytes(BAND_MEANS.read_bytes())
+    with load_method(outside, {"n_bands": 4}) as isolated:
         assert isinstance(isolated, IsolatedMethod)
         assert isolated.name == inside.name
         assert isolated.capabilities == inside.capabilities

@@ -125,7 +125,7 @@ def test_bad_appearances_are_named(appearances, message):
 
 
 def test_training_views_are_the_sequence_for_methods_without_the_shortcut():
-    from sfa_gym.protocols.features import fit_method, training_views
+    from sfa_gym.features import fit_method, training_views
     from sfa_gym.rotation import Rotation
 
     pans = _places(4, 2)
@@ -154,7 +154,7 @@ def test_training_views_are_the_sequence_for_methods_without_the_shortcut():
 
 def test_the_isolated_sfa_plugin_takes_the_appearances():
     from sfa_gym.plugins import default_plugin_folder, load_method, load_method_plugin
-    from sfa_gym.protocols.features import fit_method
+    from sfa_gym.features import fit_method
     from sfa_gym.rotation import Rotation
 
     pans = _places(6, 2)

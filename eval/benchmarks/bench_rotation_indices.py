@@ -5,7 +5,7 @@ before it), in the same process.
 The outdoor tracks score 24 of the 120 rotations of a 60 x 600 panorama. Raw pixels shrink each
 view to 4 x 35 (600 / 35 is no whole factor, so every view is shrunk on its own,
 :mod:`sfa_gym.shrink`): asked for the 24, the method shrinks 24 views instead of 120. Both paths
-run :func:`sfa_gym.protocols.features.view_features` on the same panoramas (random pixels: the
+run :func:`sfa_gym.features.view_features` on the same panoramas (random pixels: the
 cost does not depend on them), alternating, and must give the same features.
 
 Usage (from the repository root; about a minute)::
@@ -26,7 +26,7 @@ import tyro
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.files import write_json_atomic
 from sfa_gym.plugins import load_method
-from sfa_gym.protocols.features import fit_method, view_features
+from sfa_gym.features import fit_method, view_features
 from sfa_gym.rotation import Rotation, spread_indices
 
 

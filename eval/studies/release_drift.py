@@ -47,7 +47,7 @@ from sfa_gym.intervals import mean_entry
 from sfa_gym.localization import fit_predict, mae, make_regressor
 from sfa_gym.plugins import load_method
 from sfa_gym.protocols import trajectory
-from sfa_gym.protocols.features import fitted_features
+from sfa_gym.features import fitted_features
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.protocols.slow_features import SlowFeatureMethod
 from sfa_gym.recording.cache import RunCache, RunRequest

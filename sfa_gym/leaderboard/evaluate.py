@@ -125,21 +125,16 @@ def _controller(
     path: str | None, args: Mapping[str, Any], made: list[Any], hidden: list[Any], limits: Any
 ) -> Any:
     """``controller(env, weights)`` of a controller plug-in, or None: the track's gradient
-    controller. Each controller runs in a worker process of its own
-    (:class:`~sfa_gym.sandbox.IsolatedController`: it sees the features and the rover's own
-    sensors, never the env); ``made`` collects them, to be closed."""
+    controller, loaded by :func:`~sfa_gym.plugins.load_controller` (it sees the features and
+    the rover's own sensors, never the env); ``made`` collects them, to be closed."""
     if path is None:
         return None
     from sfa_gym.navigation.sensors import Rover
-    from sfa_gym.plugins import load_controller_plugin
-    from sfa_gym.sandbox import IsolatedController
+    from sfa_gym.plugins import load_controller
 
-    if not plugins_isolated():
-        plugin = load_controller_plugin(path)
-        return lambda env, weights: plugin(Rover.of(env), weights, args)
-
-    def make(env: Any, weights: Any) -> IsolatedController:
-        made.append(IsolatedController(path, Rover.of(env), weights, args, limits, hidden))
+    def make(env: Any, weights: Any) -> Any:
+        rover = Rover.of(env)
+        made.append(load_controller(path, rover, weights, args, limits=limits, hidden=hidden))
         return made[-1]
 
     return make
@@ -178,14 +173,11 @@ def _run_task(task: Task) -> dict[str, Any]:
             f"a controller drives the rover on navigation tracks only, not on {track.name!r}"
         )
     cache = RunCache(task.cache_dir)
-    # The method runs in a worker process of its own, which cannot read the render cache (the
-    # recordings hold the poses); it computes with one BLAS thread too.
-    isolated = plugins_isolated()
+    # A method from outside the package runs in a worker process of its own, which cannot read
+    # the render cache (the recordings hold the poses); it computes with one BLAS thread too.
     limits = task_limits(track, task)
-    method = load_method(
-        task.method_path, task.method_args, isolated=isolated, limits=limits, hidden=[cache.root]
-    )
-    workers: list[Any] = [method] if isolated else []
+    method = load_method(task.method_path, task.method_args, limits=limits, hidden=[cache.root])
+    workers: list[Any] = [method]
     try:
         # One BLAS thread wherever the task runs: multi-threaded reductions round differently,
         # and a Ray worker starts single-threaded while a local process does not, so the same
@@ -203,7 +195,7 @@ def _run_task(task: Task) -> dict[str, Any]:
         "fit_world_seed": track.fit_world_seed(task.world_seed),
         "scores": significant(scores),
         "seconds": round(time.perf_counter() - started, 2),
-        "isolation": isolation(),
+        "isolation": isolation(task.method_path, task.controller_path),
         "peak_rss_mb": {"evaluator": own_peak_mb(), "plugins": max(peaks) if peaks else None},
     } | ({"shared": significant(shared)} if shared else {})
 

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from sfa_gym.leaderboard.backends import Backend, TaskFailure, check_backend, run_each
-from sfa_gym.leaderboard.evaluate import HIGHER_IS_BETTER, Task, plugins_isolated, significant
+from sfa_gym.leaderboard.evaluate import HIGHER_IS_BETTER, Task, significant
 from sfa_gym.leaderboard.results import (
     git_commit,
     make_result,
@@ -42,9 +42,9 @@ from sfa_gym.leaderboard.task_files import (
 )
 from sfa_gym.leaderboard.tracks import PROTOCOLS, Track, protocol_module
 from sfa_gym.plugin_files import Kind
-from sfa_gym.plugins import file_sha256, load_plugin
+from sfa_gym.plugins import describe, file_sha256
 from sfa_gym.recording.cache import RunCache
-from sfa_gym.sandbox import Limits, check_memory_mb, check_time_limits, describe_plugin
+from sfa_gym.sandbox import Limits, check_memory_mb, check_time_limits
 from sfa_gym.source_hash import package_sources_sha256
 
 __all__ = ["SweepError", "run_sweep"]
@@ -485,14 +485,10 @@ def _describe(
     kind: Kind, source: str | os.PathLike[str], args: Mapping[str, Any], hidden: list[Path]
 ) -> dict[str, Any]:
     """What a result records of a plug-in (a method or a controller): its name, label, file,
-    SHA-256, the arguments given and all of them (the defaults filled in). The plug-in's
-    worker reads its ``Args`` (:func:`~sfa_gym.sandbox.describe_plugin`): the evaluator does
-    not import the file, unless plug-ins run in process (:data:`~sfa_gym.leaderboard.evaluate.
-    IN_PROCESS`). A refused argument raises here, before any task."""
-    if plugins_isolated():
-        report = describe_plugin(source, kind, args, limit=Limits().load, hidden=hidden)
-    else:
-        report = load_plugin(source, kind).describe(args)
+    SHA-256, the arguments given and all of them (the defaults filled in), read by
+    :func:`~sfa_gym.plugins.describe` (a worker for a file from outside: the evaluator does not
+    import it). A refused argument raises here, before any task."""
+    report = describe(source, kind, args, limit=Limits().load, hidden=hidden)
     return {
         "name": report["name"],
         "label": method_label(report["name"], report["arguments"], report["defaults"]),

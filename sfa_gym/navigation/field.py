@@ -88,7 +88,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sfa_gym._checks import FEATURE_BOUND, check_positive_int
-from sfa_gym.capabilities import get_capabilities
 from sfa_gym.features import rotation_averaged_features
 from sfa_gym.files import load_error, read_npz, strict_json, write_npz
 
@@ -397,7 +396,7 @@ class FeatureField:
             interpolation: see the class.
 
         Raises:
-            TypeError: ``model`` has neither ``transform`` nor ``transform_rotations``, or
+            TypeError: ``model`` has no ``transform``, or
                 ``spacing`` is not a number.
             ValueError: a bad ``spacing``, ``step`` or ``batch``, ``free`` returns a wrong shape
                 or no free node, or the model cannot transform the env's panoramas (unfitted,
@@ -411,13 +410,10 @@ class FeatureField:
         env = getattr(env, "unwrapped", env)
         if not hasattr(env, "arena_bounds") or not hasattr(env, "reset"):
             raise TypeError(f"env must be an OmniRoverEnv, got {type(env).__name__}")
-        if not (
-            callable(getattr(model, "transform", None))
-            or get_capabilities(model).transform_rotations
-        ):
+        if not callable(getattr(model, "transform", None)):
             raise TypeError(
-                f"model must be a fitted feature model with transform(views) (or the capability "
-                f"transform_rotations(panoramas, step)), got {type(model).__name__}"
+                f"model must be a fitted feature model with transform(views), got "
+                f"{type(model).__name__}"
             )
         bounds = tuple(float(b) for b in env.arena_bounds)
         spacing = _check_spacing(spacing, bounds)  # type: ignore[arg-type]

@@ -20,7 +20,7 @@ Every protocol module (:mod:`~sfa_gym.protocols.grid`, :mod:`~sfa_gym.protocols.
 The command line (:mod:`sfa_gym.cli.localize`: output folders, figures, reports) and the
 leaderboard (:mod:`sfa_gym.leaderboard`) both call ``score``; neither scores by itself.
 :mod:`~sfa_gym.protocols.settings` holds what several protocols share (where they render, the SFA
-network), :mod:`~sfa_gym.protocols.features` how a method is fitted on rotated views.
+network), :mod:`~sfa_gym.features` how a method is fitted on rotated views.
 """
 
 from __future__ import annotations

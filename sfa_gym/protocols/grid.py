@@ -28,12 +28,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sfa_gym._checks import check_fits_in_memory, check_int, check_positive_int, check_world_seed
+from sfa_gym.features import fitted_features, invariance_entry, method_regressors
 from sfa_gym.localization import fit_predict, mae, make_regressor, random_split_mae
 from sfa_gym.localization.metrics import MAE, SplitMAE, mae_dict
 from sfa_gym.phases import phase
 from sfa_gym.plugins import FeatureMethod
 from sfa_gym.protocols import RunSource
-from sfa_gym.protocols.features import fitted_features, invariance_entry, method_regressors
 from sfa_gym.protocols.scores import MethodScores
 from sfa_gym.protocols.settings import RenderSettings, check_choice, check_choices
 from sfa_gym.recording.cache import RunRequest

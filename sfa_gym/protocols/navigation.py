@@ -233,9 +233,8 @@ def fit_features(
 ) -> tuple[FeatureMethod, NDArray[np.float64], NDArray[np.float64]]:
     """``method`` fitted on every rotation of the training run in time order, the
     rotation-averaged features of the training positions ``(L, k)`` and the feature weights."""
-    from sfa_gym.features import rotation_averaged_features
+    from sfa_gym.features import fit_method, rotation_averaged_features
     from sfa_gym.navigation.controllers import slowness_weights
-    from sfa_gym.protocols.features import fit_method
     from sfa_gym.rotation import Rotation
 
     fitted = fit_method(method, training.sequence, Rotation())
@@ -246,7 +245,7 @@ def fit_features(
 
 PER_ROTATION_WARNING = 100_000
 """Views a field may ask a method to transform one by one before :func:`_field_features` warns
-(a method without ``rotation_invariant``, ``transform_rotations`` or ``rotation_averaged``)."""
+(a method that is not ``rotation_invariant`` and has no fast path of :mod:`sfa_gym.features`)."""
 
 
 def _warn_per_rotation(model: Any, n_panoramas: int, width: int) -> None:
@@ -255,18 +254,19 @@ def _warn_per_rotation(model: Any, n_panoramas: int, width: int) -> None:
     import warnings
 
     from sfa_gym.capabilities import get_capabilities
+    from sfa_gym.features import EmbeddedFeatures
 
-    found = get_capabilities(model)
-    if found.rotation_invariant or found.transform_rotations or found.rotation_averaged:
+    fast = callable(getattr(model, "transform_rotations", None))  # the package's own models
+    if get_capabilities(model).rotation_invariant or fast or isinstance(model, EmbeddedFeatures):
         return
     views = n_panoramas * width
     if views > PER_ROTATION_WARNING:
         name = getattr(model, "name", type(model).__name__)
         warnings.warn(
-            f"{name} declares no rotation capability, so its feature field transforms every "
+            f"{name} is not rotation_invariant, so its feature field transforms every "
             f"rotation of each node: {n_panoramas} nodes x {width} columns = {views:,} views. "
-            "Declare rotation_invariant (column statistics) or transform_rotations (see "
-            "docs/plugins.md, 'Rotations and speed') if the method allows it",
+            "Declare rotation_invariant (column statistics, see docs/plugins.md) if the "
+            "method allows it",
             stacklevel=3,
         )
 

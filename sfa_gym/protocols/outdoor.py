@@ -14,7 +14,7 @@ protocol) is always scored. Several ``later_hours`` or ``other_days`` give one c
 the sun can be dated (``day_of_year``, ``latitude_deg``) and the day chosen (``day``): the
 settings and the env of each run are in :mod:`sfa_gym.protocols.outdoor_settings`.
 
-Fitting (:func:`fit_outdoor`): a method with ``fit_rotations`` (hierarchical SFA) on every
+Fitting (:func:`fit_outdoor`): hierarchical SFA (its ``fit_rotations``) on every
 simulated rotation of every training frame in time order; a column statistic
 (``rotation_invariant``) once per panorama; any other on the evaluated rotation windows of every
 ``fit_every``-th training frame (all views of 5900 panoramas 60 x 600 would be 76 GB). Each
@@ -33,16 +33,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sfa_gym.localization.appearance import normalise_panoramas
-from sfa_gym.phases import phase
-from sfa_gym.plugins import FeatureMethod, get_capabilities
-from sfa_gym.protocols.features import (
+from sfa_gym.features import (
     fit_method,
     fit_on_views,
-    full_width,
+    fits_on_panoramas,
     invariance_entry,
     view_features,
 )
+from sfa_gym.localization.appearance import normalise_panoramas
+from sfa_gym.phases import phase
+from sfa_gym.plugins import FeatureMethod, get_capabilities
 
 # the settings live in their own module; their public names are re-exported here
 from sfa_gym.protocols.outdoor_settings import CONDITIONS, ENV_ID, Condition, Config
@@ -213,10 +213,7 @@ def condition_scores(estimates: NDArray, test: TestSet, test_range: NDArray) -> 
 def fit_outdoor(method: FeatureMethod, config: Config, data: OutdoorData) -> FeatureMethod:
     """``method`` fitted on the training frames (see the module docstring)."""
     rotation, train_pan, runs = config.rotation, data.train_pan, config.appearances
-    capabilities = get_capabilities(method)
-    if capabilities.fit_rotations or (
-        capabilities.rotation_invariant and full_width(rotation, train_pan)
-    ):
+    if fits_on_panoramas(method, rotation, train_pan):
         return fit_method(method, train_pan, rotation, runs)
     # every fit_every-th frame, with its train_also runs where they share its rotations
     places = np.arange(0, len(train_pan) // runs, config.fit_every)
@@ -348,7 +345,8 @@ def score_on(
 ) -> Scores:
     """Fit ``method`` on ``data`` and score each of ``regressors`` (default: the method's
     ``regressor``, else linear) under every condition; ``all_windows``: also the linear
-    regression on every rotation window (cheap for a method with ``transform_rotations``)."""
+    regression on every rotation window (cheap for a method with ``transform_rotations``,
+    :mod:`sfa_gym.features`)."""
     from sfa_gym.localization import fit_predict, make_regressor, predict_locations
 
     if regressors is None:

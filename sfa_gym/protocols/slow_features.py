@@ -1,6 +1,7 @@
 """Hierarchical SFA as a feature method: the network of :class:`SFASettings`, fitted on every
 simulated rotation of a sequence of panoramas, as every protocol and the leaderboard's ``sfa``
-plug-in (``baselines/sfa.py``) train it."""
+plug-in (``baselines/sfa.py``) train it. A method, not feature machinery (:mod:`sfa_gym.features`):
+it stays beside the settings it is made from, and out of the envs' start-up (scikit-learn)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,6 @@ import numpy as np
 from numpy.typing import NDArray
 from sklearn.base import BaseEstimator, TransformerMixin
 
-from sfa_gym.capabilities import Capabilities
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.rotation import Rotation
 
@@ -32,7 +32,6 @@ class SlowFeatureMethod(TransformerMixin, BaseEstimator):
     """
 
     name = "hierarchical_sfa"
-    capabilities = Capabilities(fit_rotations=True, transform_rotations=True, regressor="linear")
 
     def __init__(
         self,
@@ -74,9 +73,12 @@ class SlowFeatureMethod(TransformerMixin, BaseEstimator):
         """``(N, H, W, 3)`` uint8 -> ``(N, n_outputs)`` slow features."""
         return self.model_.transform(views)
 
-    def transform_rotations(self, panoramas: NDArray[np.uint8], step: int) -> NDArray[np.float64]:
-        """Features of every ``step``-column rotation of each panorama, ``(L, W // step,
-        n_outputs)``, computed with the rotation shortcut (the lower layers run once per
-        panorama). ``step`` may differ from the training rotation's: a feature field averages
-        over every column (step 1) of a network trained with 5-column rotations."""
-        return self.model_.transform_rotations(panoramas, step=step)
+    def transform_rotations(
+        self, panoramas: NDArray[np.uint8], step: int, indices: Any = None
+    ) -> NDArray[np.float64]:
+        """Features of the ``step``-column rotations ``indices`` (all by default) of each
+        panorama, ``(L, K', n_outputs)``, computed with the rotation shortcut (the lower layers
+        run once per panorama; the rotations asked for are picked from all). ``step`` may differ
+        from the training rotation's: a feature field averages over every column (step 1) of a
+        network trained with 5-column rotations."""
+        return self.model_.transform_rotations(panoramas, step, indices)

@@ -1,7 +1,8 @@
-"""Plug-ins out of the evaluator's process: each plug-in file runs in a worker process of its
-own (confined by bubblewrap where the machine allows it), every call into it has a time limit,
-its address space a memory limit, and only numbers and JSON-type values come back. See the
-trust model in :mod:`sfa_gym.plugins`.
+"""Plug-ins from outside the package out of the evaluator's process: each such file runs in a
+worker process of its own (confined by bubblewrap where the machine allows it), every call into
+it has a time limit, its address space a memory limit, and only numbers and JSON-type values
+come back; the package's own plug-ins run in the evaluator's process (:func:`isolation` decides,
+for every loader). See the trust model in :mod:`sfa_gym.plugins`.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from sfa_gym.sandbox.process import (
 )
 from sfa_gym.sandbox.proxies import (
     TIME_LIMITS,
+    InProcess,
     IsolatedController,
     IsolatedMethod,
     Limits,
@@ -29,6 +31,7 @@ from sfa_gym.sandbox.proxies import (
 __all__ = [
     "IN_PROCESS",
     "TIME_LIMITS",
+    "InProcess",
     "IsolatedController",
     "IsolatedMethod",
     "Limits",

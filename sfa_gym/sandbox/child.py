@@ -7,10 +7,8 @@ arguments; the worker imports the file, makes the method or controller and answe
 evaluator may know of it (name, capabilities, filled-in arguments). A first message with
 ``"describe": true`` asks only what the file declares (its ``Args`` with their defaults, the
 arguments filled in, checked): the evaluator plans a sweep from it without importing the file.
-Every later message is one call (``fit``, ``transform``, ``act``, ...) with arrays of views or
-observations (``fit_training_views`` sends panoramas, and the worker makes their rotated views;
-``mean_over_rotations`` answers with the mean of ``transform_rotations`` over the rotations);
-the answer is ``{"ok": value}`` or ``{"error": [type names], "message": text}``.
+Every later message is one call (``fit``, ``transform``, ``reset``, ``act``) with arrays of views
+or observations; the answer is ``{"ok": value}`` or ``{"error": [type names], "message": text}``.
 
 The worker holds only what it was sent: views, panoramas, observations and the rover's own
 sensors. One BLAS thread, as the evaluator computes, so that scores do not depend on where a
@@ -48,20 +46,6 @@ def _send(stream: BinaryIO, value: Any) -> None:
     stream.flush()
 
 
-def _capabilities(method: Any) -> dict[str, Any]:
-    from sfa_gym.capabilities import get_capabilities
-
-    return dataclasses.asdict(get_capabilities(method))
-
-
-def _rotation(method: Any) -> dict[str, Any] | None:
-    """The training rotation of a method that fits on rotations itself, as its fields."""
-    from sfa_gym.rotation import Rotation
-
-    own = getattr(method, "rotation", None)
-    return dataclasses.asdict(own) if isinstance(own, Rotation) else None
-
-
 def _params(made: Any) -> dict[str, Any]:
     """``get_params()`` with values that are not JSON types given as their ``repr``."""
     get_params = getattr(made, "get_params", None)
@@ -79,20 +63,13 @@ def _load(request: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
 
     import numpy as np
 
+    from sfa_gym.capabilities import get_capabilities
     from sfa_gym.plugins import load_plugin
 
     plugin = load_plugin(Path(request["path"]), request["kind"])
     arguments = plugin.arguments(request.get("args") or {})
     if request["kind"] == "method":
-        from sfa_gym.protocols.slow_features import SlowFeatureMethod
-
         made = plugin(**arguments)
-        about = {
-            "capabilities": _capabilities(made),
-            "rotation": _rotation(made),
-            # the command line's protocols train hierarchical SFA with their own settings
-            "hierarchical_sfa": isinstance(made, SlowFeatureMethod),
-        }
     else:
         from sfa_gym.navigation.sensors import Rover
 
@@ -101,9 +78,13 @@ def _load(request: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
         weights = np.asarray(request["weights"], dtype=np.float64)
         made = plugin.make(rover, weights, **arguments)
         plugin._check_made(made, ("reset", "act"), "act(obs, info)")
-        about = {"capabilities": _capabilities(made)}  # e.g. whether it acts on panoramas
-    about.update(name=made.name, arguments=arguments, params=_params(made))
-    return made, about
+    capabilities = dataclasses.asdict(get_capabilities(made))
+    return made, {
+        "capabilities": capabilities,
+        "name": made.name,
+        "arguments": arguments,
+        "params": _params(made),
+    }
 
 
 def _describe(request: dict[str, Any]) -> dict[str, Any]:
@@ -115,54 +96,15 @@ def _describe(request: dict[str, Any]) -> dict[str, Any]:
     return plugin.describe(request.get("args"), make=True)
 
 
-CALLS = {
-    "method": (
-        "fit",
-        "fit_training_views",
-        "fit_rotations",
-        "transform",
-        "transform_rotations",
-        "mean_over_rotations",
-    ),
-    "controller": ("reset", "act"),
-}
+CALLS = {"method": ("fit", "transform"), "controller": ("reset", "act")}
 
 
 def _call(made: Any, kind: str, request: dict[str, Any]) -> Any:
     call = request["call"]
     if call not in CALLS[kind]:
         raise ValueError(f"no call {call!r} for a {kind} (one of {CALLS[kind]})")
-    if call == "fit_training_views":  # the evaluator sent panoramas: their views are made here
-        made.fit(_training_views(*request["args"]))
-        return _fitted(made)
-    if call == "mean_over_rotations":
-        return _mean_over_rotations(made, *request["args"])
     result = getattr(made, call)(*request.get("args", []))
-    return _fitted(made) if call in ("fit", "fit_rotations") else result
-
-
-def _mean_over_rotations(made: Any, panoramas: Any, step: int) -> Any:
-    """The plug-in's ``transform_rotations`` averaged over the rotations, as the evaluator
-    averages them (float64), after the checks the evaluator applies to features (one row per
-    panorama and rotation, finite, bounded)."""
-    import numpy as np
-
-    from sfa_gym.sandbox.proxies import checked_features
-
-    shape = (len(panoramas), panoramas.shape[2] // step)
-    what = "transform_rotations(panoramas, step)"
-    features = checked_features(made.transform_rotations(panoramas, step), shape, made.name, what)
-    return np.asarray(features, np.float64).mean(1)
-
-
-def _training_views(
-    panoramas: Any, rotation: dict[str, Any], appearances: int, indices: Any
-) -> Any:
-    """The views ``fit_training_views`` fits on, as the evaluator would have made them."""
-    from sfa_gym.protocols.features import training_views
-    from sfa_gym.rotation import Rotation
-
-    return training_views(panoramas, Rotation(**rotation), appearances, indices)
+    return _fitted(made) if call == "fit" else result
 
 
 def _fitted(made: Any) -> dict[str, Any]:
@@ -212,7 +154,6 @@ def main() -> None:
     from threadpoolctl import threadpool_limits
 
     import sfa_gym.plugins  # noqa: F401
-    import sfa_gym.protocols.slow_features  # noqa: F401
     from sfa_gym.sandbox.wire import decode
 
     with contextlib.suppress(ImportError):

@@ -361,22 +361,30 @@ def _wait(fd: int, deadline: float, *, write: bool) -> None:
 
 
 IN_PROCESS = "SFA_GYM_PLUGINS_IN_PROCESS"
-"""Set to ``1``, the evaluator (a leaderboard task, the command line's protocols) imports its
-plug-ins into its own process, with its full rights: for
-debugging a plug-in of one's own (a debugger stops in it), or a test in which a plug-in stands for
-a failure of the evaluator itself (a worker that dies, a signal to the sweep). Never for a board
-of others' plug-ins."""
+"""Set to ``1``, the evaluator (a leaderboard task, the command line's protocols) imports every
+plug-in into its own process, with its full rights: for debugging a plug-in of one's own (a
+debugger stops in it), or a test in which a plug-in stands for a failure of the evaluator itself
+(a worker that dies, a signal to the sweep). Never for a board of others' plug-ins."""
 
 
 def plugins_isolated() -> bool:
-    """Whether tasks run plug-ins in worker processes (the default; see :data:`IN_PROCESS`)."""
+    """Whether plug-ins from outside the package run in worker processes (the default; see
+    :data:`IN_PROCESS`)."""
     return os.environ.get(IN_PROCESS, "") != "1"
 
 
-def isolation() -> str:
-    """How this process runs plug-ins: ``"bwrap"`` (worker processes confined by bubblewrap),
-    ``"process"`` (plain worker processes: no bubblewrap here) or ``"in-process"``
-    (:data:`IN_PROCESS`). Only ``"bwrap"`` results can be published."""
+def isolation(method: str | os.PathLike[str] | None = None, controller: Any = None) -> str:
+    """Where the plug-ins ``method`` and ``controller`` (files or built-in names; None: not
+    used) run, the one decision every loader follows: ``"built-in"`` (all are the package's own
+    files: in the evaluator's process, :class:`~sfa_gym.sandbox.InProcess`), ``"bwrap"``
+    (worker processes confined by bubblewrap), ``"process"`` (plain worker processes: no
+    bubblewrap here) or ``"in-process"`` (:data:`IN_PROCESS`). With neither given, how a file
+    from outside runs. Only ``"bwrap"`` and ``"built-in"`` results can be published."""
+    from sfa_gym.plugin_files import builtin
+
     if not plugins_isolated():
         return "in-process"
+    given = [(s, k) for s, k in ((method, "method"), (controller, "controller")) if s is not None]
+    if given and all(builtin(s, k) for s, k in given):  # type: ignore[arg-type]
+        return "built-in"
     return "bwrap" if confinement() is not None else "process"

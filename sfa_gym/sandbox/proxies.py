@@ -11,6 +11,7 @@ and arrays of numbers where features or actions are expected.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -19,17 +20,18 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from threadpoolctl import ThreadpoolController
 
 from sfa_gym._checks import FEATURE_BOUND, machine_memory_bytes
 from sfa_gym.capabilities import Capabilities
 from sfa_gym.plugin_files import PluginError, resolve_plugin
-from sfa_gym.rotation import Rotation
 from sfa_gym.sandbox.process import Worker
 
 __all__ = [
     "TIME_LIMITS",
     "IsolatedController",
     "IsolatedMethod",
+    "InProcess",
     "Limits",
     "check_memory_mb",
     "check_time_limits",
@@ -90,9 +92,9 @@ class Limits:
     load: float = 300.0
     """importing the file and making the method or controller"""
     fit: float = 1800.0
-    """``fit`` or ``fit_rotations``"""
+    """``fit``"""
     transform: float = 600.0
-    """one ``transform`` or ``transform_rotations`` (a block of a few thousand views)"""
+    """one ``transform`` (a block of a few thousand views)"""
     reset: float = 10.0
     """a controller's ``reset``"""
     act: float = 1.0
@@ -152,21 +154,16 @@ class _Isolated:
         self.arguments: dict[str, Any] = dict(about.get("arguments") or {})
         """every field of the plug-in's ``Args`` with the arguments applied (what results record)"""
         self._params: dict[str, Any] = dict(about.get("params") or {})
-        self._about = about
-
-    def _call(self, call: str, limit: float, *args: Any) -> Any:
-        return self._worker.call({"call": call, "args": list(args)}, limit, f"{call}()")
-
-    def _read_capabilities(self) -> None:
-        """``capabilities`` from what the worker reported of the plug-in (closes the worker and
-        raises a PluginError when that is unreadable)."""
         try:
-            found = dict(self._about["capabilities"])
+            found = dict(about["capabilities"])
             found["extra_regressors"] = tuple(found.get("extra_regressors", ()))
             self.capabilities = Capabilities(**found)
         except (TypeError, ValueError, KeyError) as error:
             self.close()
             raise PluginError(f"{self.path} reported unreadable capabilities: {error}") from None
+
+    def _call(self, call: str, limit: float, *args: Any) -> Any:
+        return self._worker.call({"call": call, "args": list(args)}, limit, f"{call}()")
 
     def close(self) -> None:
         """Stop the worker (the proxy is unusable afterwards)."""
@@ -212,7 +209,7 @@ def checked_features(value: Any, shape: tuple[int, ...], who: str, what: str) ->
     if not found.size:
         return found
     # the extremes alone decide both checks (NaN and infinities reach them), in two passes
-    # without temporaries: a field's batch of every rotation's features is 300 MB
+    # without temporaries: a block of features can be hundreds of MB
     low, high = float(np.min(found)), float(np.max(found))
     if not (math.isfinite(low) and math.isfinite(high)):
         raise PluginError(f"{who}: {what} returned non-finite features (NaN or infinity)")
@@ -227,11 +224,9 @@ def checked_features(value: Any, shape: tuple[int, ...], who: str, what: str) ->
 
 class IsolatedMethod(_Isolated):
     """A feature method (the plug-in contract of :mod:`sfa_gym.plugins`) running in its own
-    worker process: ``name``, ``capabilities``, ``rotation`` (methods that fit on rotations
-    themselves), ``fit``, ``fit_rotations``, ``transform``, ``transform_rotations``, after
-    fitting ``input_shape_``, and ``get_params`` (the method's own, values that are not JSON
-    types as their ``repr``); and two calls in which the worker does the evaluator's part, so
-    that less crosses the pipe: ``fit_training_views`` and ``mean_over_rotations``.
+    worker process: ``name``, ``capabilities``, ``fit``, ``transform``, after fitting
+    ``input_shape_``, and ``get_params`` (the method's own, values that are not JSON types as
+    their ``repr``).
 
     Args:
         source: a built-in name or a plug-in file (:func:`~sfa_gym.plugins.resolve_plugin`).
@@ -250,83 +245,21 @@ class IsolatedMethod(_Isolated):
         hidden: Sequence[str | os.PathLike[str]] = (),
     ) -> None:
         super().__init__(source, args, limits, hidden)
-        self._read_capabilities()
-        try:
-            rotation = self._about.get("rotation")
-            if rotation is not None:
-                self.rotation = Rotation(**rotation)
-            self.hierarchical_sfa = bool(self._about.get("hierarchical_sfa"))
-            """whether the plug-in is the built-in hierarchical SFA (the command line's
-            protocols train their own, with their ``--sfa.*`` settings)"""
-        except (TypeError, ValueError, KeyError) as error:
-            self.close()
-            raise PluginError(f"{self.path} reported an unreadable rotation: {error}") from None
 
-    def _fitted(self, call: str, *args: Any) -> IsolatedMethod:
-        found = self._call(call, self.limits.fit, *args)
+    def fit(self, views: ArrayLike, sequence_ids: ArrayLike | None = None) -> IsolatedMethod:
+        # called as the caller called it: a method may take no sequence_ids at all
+        given = [np.asarray(views)] + ([] if sequence_ids is None else [np.asarray(sequence_ids)])
+        found = self._call("fit", self.limits.fit, *given)
         shape = found.get("input_shape_") if isinstance(found, dict) else None
         if shape is not None:
             self.input_shape_ = tuple(int(n) for n in shape)
         self._params = dict(found.get("params") or self._params)
         return self
 
-    def fit(self, views: ArrayLike, sequence_ids: ArrayLike | None = None) -> IsolatedMethod:
-        # called as the caller called it: a method may take no sequence_ids at all
-        if sequence_ids is None:
-            return self._fitted("fit", np.asarray(views))
-        return self._fitted("fit", np.asarray(views), np.asarray(sequence_ids))
-
-    def fit_rotations(self, panoramas: ArrayLike, appearances: int = 1) -> IsolatedMethod:
-        if appearances == 1:  # the one-argument call every plug-in with the capability takes
-            return self._fitted("fit_rotations", np.asarray(panoramas))
-        return self._fitted("fit_rotations", np.asarray(panoramas), int(appearances))
-
-    def fit_training_views(
-        self,
-        panoramas: ArrayLike,
-        rotation: Rotation,
-        appearances: int = 1,
-        indices: ArrayLike | None = None,
-    ) -> IsolatedMethod:
-        """``fit`` on :func:`~sfa_gym.protocols.features.training_views` of ``panoramas``,
-        the views built in the worker: only the panoramas cross the pipe, and the evaluator
-        holds no copy of every view."""
-        picked = None if indices is None else np.asarray(indices, dtype=np.int64)
-        fields = dataclasses.asdict(rotation)
-        return self._fitted(
-            "fit_training_views", np.asarray(panoramas), fields, int(appearances), picked
-        )
-
     def transform(self, views: ArrayLike) -> NDArray[Any]:
         views = np.asarray(views)
         found = self._call("transform", self.limits.transform, views)
         return checked_features(found, (len(views),), self.name, "transform(views)")
-
-    def transform_rotations(
-        self, panoramas: ArrayLike, step: int, indices: ArrayLike | None = None
-    ) -> NDArray[Any]:
-        panoramas = np.asarray(panoramas)
-        if indices is None:  # the two-argument call every plug-in with the capability takes
-            found = self._call("transform_rotations", self.limits.transform, panoramas, int(step))
-            shape = (len(panoramas), panoramas.shape[2] // int(step))
-            return checked_features(found, shape, self.name, "transform_rotations(panoramas, step)")
-        picked = np.asarray(indices, dtype=np.int64)
-        found = self._call(
-            "transform_rotations", self.limits.transform, panoramas, int(step), picked
-        )
-        shape = (len(panoramas), len(picked))
-        what = "transform_rotations(panoramas, step, indices)"
-        return checked_features(found, shape, self.name, what)
-
-    def mean_over_rotations(self, panoramas: ArrayLike, step: int) -> NDArray[Any]:
-        """``transform_rotations(panoramas, step)`` averaged over the rotations in the worker,
-        ``(L, k)`` float64: the features of every rotation stay there (the same mean as the
-        evaluator's; the worker checks them with :func:`checked_features`, as
-        :meth:`transform_rotations` does here)."""
-        panoramas = np.asarray(panoramas)
-        found = self._call("mean_over_rotations", self.limits.transform, panoramas, int(step))
-        what = "transform_rotations(panoramas, step) averaged over the rotations"
-        return checked_features(found, (len(panoramas),), self.name, what)
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         return dict(self._params)
@@ -359,7 +292,6 @@ class IsolatedController(_Isolated):
         rover_fields = dataclasses.asdict(rover)
         weights = np.asarray(weights, dtype=np.float64)
         super().__init__(source, args, limits, hidden, rover=rover_fields, weights=weights)
-        self._read_capabilities()
 
     @staticmethod
     def _seen(obs: Mapping[str, Any], info: Mapping[str, Any]) -> list[Any]:
@@ -373,3 +305,43 @@ class IsolatedController(_Isolated):
     def act(self, obs: Mapping[str, Any], info: Mapping[str, Any]) -> NDArray[Any]:
         found = self._call("act", self.limits.act, *self._seen(obs, info))
         return _numbers(found, self.name, "act(obs, info)")
+
+
+class InProcess:
+    """A plug-in of the package's own (or any, under :data:`~sfa_gym.sandbox.IN_PROCESS`) in
+    the evaluator's process, looking like a worker's proxy: each call runs with one BLAS and
+    OpenMP thread, as a worker computes (its environment sets them so), so that a score does
+    not depend on where the method ran; ``close`` does nothing and ``peak_rss_mb`` is None
+    (the evaluator's own peak includes it)."""
+
+    peak_rss_mb = None
+
+    def __init__(self, made: Any) -> None:
+        self.made = made
+        # the thread pools loaded now, the plug-in's own included (a scan per call costs ms)
+        self._pools = ThreadpoolController()
+
+    def __getattr__(self, name: str) -> Any:
+        found = getattr(self.made, name)
+        if not callable(found):
+            return found
+
+        @functools.wraps(found)
+        def call(*args: Any, **kwargs: Any) -> Any:
+            with self._pools.limit(limits=1):
+                out = found(*args, **kwargs)
+            return self if out is self.made else out
+
+        return call
+
+    def close(self) -> None:
+        """Nothing to stop."""
+
+    def __enter__(self) -> InProcess:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"InProcess({self.made!r})"

@@ -48,14 +48,13 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils import Tags
 from sklearn.utils.validation import check_is_fitted
 
 from sfa_gym._checks import check_positive_int
 from sfa_gym._types import check_panoramas, check_views
-from sfa_gym.capabilities import Capabilities
 from sfa_gym.rotation import (
     check_window,
     count_places,
@@ -139,10 +138,6 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
             (None for a model built from weights whose training is unknown).
         n_training_views_: number of training views (rotated views count individually).
     """
-
-    # transform_rotations reads every rotation of a panorama at once; its fit_rotations takes
-    # the rotation as arguments, unlike a feature method's (see sfa_gym.capabilities)
-    capabilities = Capabilities(transform_rotations=True)
 
     def __init__(
         self,
@@ -457,7 +452,7 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
         return out
 
     def transform_rotations(
-        self, panoramas: NDArray[np.uint8], step: int = 5
+        self, panoramas: NDArray[np.uint8], step: int = 5, indices: ArrayLike | None = None
     ) -> NDArray[np.float64]:
         """Slow features of every simulated rotation of every panorama.
 
@@ -473,10 +468,13 @@ class HierarchicalSFA(TransformerMixin, BaseEstimator):
             panoramas: ``(L, H, W, 3)`` uint8 with ``H`` the model's input height and ``W`` at
                 least its input width (``W`` itself for a model of 360 degree views).
             step: rotation step in columns; must divide ``W``.
+            indices: the rotations returned (None: all), picked from all of them.
 
         Returns:
-            ``(L, K, n_outputs)`` float64.
+            ``(L, K, n_outputs)`` float64 (``K = len(indices)`` when given).
         """
+        if indices is not None:
+            return self.transform_rotations(panoramas, step)[:, indices]
         params = self._check_fitted()
         panoramas = check_panoramas(panoramas, self.input_shape_, "HierarchicalSFA")
         n_loc, h, w, _ = panoramas.shape
