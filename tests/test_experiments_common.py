@@ -11,8 +11,8 @@ import pytest
 from eval.synthetic import synthetic_panoramas
 from sfa_gym.cli.figures import quarter_outputs
 from sfa_gym.cli.localize import GridExperiment, TrajectoryExperiment
-from sfa_gym.protocols import grid
 from sfa_gym.features import fit_method, view_features
+from sfa_gym.protocols import grid
 from sfa_gym.protocols.settings import NETWORKS, NetworkName, SFASettings, WeightSharing
 from sfa_gym.protocols.slow_features import SlowFeatureMethod
 from sfa_gym.rotation import Rotation
@@ -227,9 +227,9 @@ def test_both_protocols_nest_the_same_sfa_settings(protocol):
 def test_rotation_invariant_methods_transform_each_panorama_once(panoramas):
     from sklearn.base import clone
 
-    from sfa_gym.plugins import load_method
+    from sfa_gym.plugins import load_method_plugin
 
-    band_means = load_method("band_means", {"n_bands": 2}, isolated=False)  # subclassed here
+    band_means = load_method_plugin("band_means")(n_bands=2)  # subclassed here
     calls = []
 
     class Counting(type(band_means)):
@@ -266,10 +266,10 @@ def test_the_auto_network_is_the_preset_made_for_the_panoramas():
     assert load_method_plugin("sfa")().settings.network == "auto"
 
 
-def test_a_method_with_rotation_indices_is_asked_only_for_the_scored_rotations(panoramas):
-    from sfa_gym.plugins import load_method
+def test_a_fast_path_with_indices_is_asked_only_for_the_scored_rotations(panoramas):
+    from sfa_gym.plugins import load_method, load_method_plugin
 
-    raw = load_method("raw_pixels", {"height": 2, "width": 8}, isolated=False)
+    raw = load_method_plugin("raw_pixels")(height=2, width=8)
     asked = []
 
     class Counting(type(raw)):
@@ -284,7 +284,7 @@ def test_a_method_with_rotation_indices_is_asked_only_for_the_scored_rotations(p
     assert set(asked) == {3}  # never all ten
     every = view_features(method, panoramas, rotation, progress=False)
     np.testing.assert_array_equal(some, every[:, picked])
-    # the same through the plug-in's worker process: the indices cross the boundary
+    # the same through load_method (in process, one BLAS thread): the indices pass through
     with load_method("raw_pixels", {"height": 2, "width": 8}) as isolated:
         fit_method(isolated, panoramas, rotation)
         across = view_features(isolated, panoramas, rotation, picked, progress=False)

@@ -503,20 +503,19 @@ NAV_TINY = {
 
 class _MeanColour:
     """A cheap fitted feature model: the mean colour of a panorama, the same for every
-    rotation (``transform_rotations``: no rotated views are built)."""
+    rotation (``rotation_invariant``: no rotated views are built)."""
 
-    capabilities = Capabilities(transform_rotations=True)
+    capabilities = Capabilities(rotation_invariant=True)
 
-    def transform_rotations(self, panoramas, step):
-        means = np.asarray(panoramas, dtype=np.float64).mean(axis=(1, 2))
-        return np.repeat(means[:, None, :], panoramas.shape[2] // step, axis=1)
+    def transform(self, panoramas):
+        return np.asarray(panoramas, dtype=np.float64).mean(axis=(1, 2))
 
 
 class _TopRowColour(_MeanColour):
     """Another cheap model: the mean colour of the top row."""
 
-    def transform_rotations(self, panoramas, step):
-        return super().transform_rotations(np.asarray(panoramas)[:, :1], step)
+    def transform(self, panoramas):
+        return super().transform(np.asarray(panoramas)[:, :1])
 
 
 @pytest.fixture(scope="module")
@@ -594,16 +593,13 @@ class Args:
 
 class MeanColour:
     name = "mean_colour"
-    capabilities = Capabilities(transform_rotations=True)
+    capabilities = Capabilities(rotation_invariant=True)
     def __init__(self, rows):
         self.rows = rows
     def fit(self, views):
         return self
     def transform(self, views):
         return np.asarray(views[:, : self.rows], dtype=np.float64).mean(axis=(1, 2))
-    def transform_rotations(self, panoramas, step):
-        means = self.transform(panoramas)
-        return np.repeat(means[:, None], panoramas.shape[2] // step, axis=1)
 
 def make_method(rows=40):
     return MeanColour(rows)

@@ -103,7 +103,7 @@ def test_a_field_that_transforms_every_rotation_of_many_nodes_warns_with_the_cou
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         navigation._warn_per_rotation(PerView(), 100, 350)  # 35,000 views: no warning
-        pca = load_method(ROOT / "baselines" / "pca.py", {}, isolated=False)
-        navigation._warn_per_rotation(pca, 2000, 350)  # transform_rotations: no warning
-        band_means = load_method(ROOT / "baselines" / "band_means.py", {}, isolated=False)
+        pca = load_method(ROOT / "baselines" / "pca.py", {})
+        navigation._warn_per_rotation(pca, 2000, 350)  # its transform_rotations: no warning
+        band_means = load_method(ROOT / "baselines" / "band_means.py", {})
         navigation._warn_per_rotation(band_means, 2000, 350)  # rotation invariant: once each

@@ -58,12 +58,18 @@ def _views(n: int = 6) -> np.ndarray:
     return np.random.default_rng(0).integers(0, 256, (n, 8, 24, 3), dtype=np.uint8)
 
 
-def test_an_honest_plugin_gives_the_same_features_isolated(tmp_path):
+@pytest.fixture
+def outside(tmp_path):
+    """``baselines/band_means.py`` copied out of the package: a file from outside, in a worker."""
+    path = tmp_path / "band_means.py"
+    path.write_bytes(BAND_MEANS.read_bytes())
+    return path
+
+
+def test_an_honest_plugin_gives_the_same_features_isolated(outside):
     views = _views(40)
     inside = load_method(BAND_MEANS, {"n_bands": 4}).fit(views)  # built-in: in process
     assert isinstance(inside, InProcess)
-    outside = tmp_path / "band_means.py"  # the same file from outside: in a worker
-    outside.write_bytes(BAND_MEANS.read_bytes())
     with load_method(outside, {"n_bands": 4}) as isolated:
         assert isinstance(isolated, IsolatedMethod)
         assert isolated.name == inside.name
@@ -104,7 +110,7 @@ def test_a_plugin_sees_none_of_the_evaluators_objects(tmp_path):
     frames, saw_name, secrets, envs = found[0]
     assert (frames, saw_name, secrets, envs) == (0, 0, 0, 0)
     # the same plug-in in-process finds them all: the test can fail
-    inside = load_method(_plugin(tmp_path, SPY, "inside.py"), isolated=False).fit(_views())
+    inside = load_method_plugin(_plugin(tmp_path, SPY, "inside.py"))().fit(_views())
     frames, saw_name, secrets, envs = inside.transform(_views())[0]
     assert frames >= 1 and saw_name and secrets == 1 and envs >= 1
 
@@ -156,13 +162,14 @@ def test_a_plugin_that_dies_is_reported_with_its_exit_code(tmp_path):
             method.transform(_views())
 
 
-def test_wrong_outputs_and_arguments_are_refused_naming_the_plugin(tmp_path):
+def test_wrong_outputs_and_arguments_are_refused_naming_the_plugin(tmp_path, outside):
     words = "    def transform(self, views):\n        return [['go']] * len(views)\n"
     with load_method(_plugin(tmp_path, words)) as method:
         with pytest.raises(PluginError, match="hostile: transform"):
             method.fit(_views()).transform(_views())
-    with pytest.raises(ValueError, match="unknown argument 'n_band'") as raised:
-        load_method(BAND_MEANS, {"n_band": 3})
+    for source in (BAND_MEANS, outside):  # in process, then in a worker
+        with pytest.raises(ValueError, match="unknown argument 'n_band'") as raised:
+            load_method(source, {"n_band": 3})
     assert "in the worker process of the plug-in" in raised.value.__notes__[0]  # its traceback
     with pytest.raises(ValueError, match="time limit act"):
         Limits(act=0)
@@ -277,13 +284,13 @@ def test_one_bad_feature_among_good_ones_is_found(where, value, message):
         checked_features(integers, (6,), "p", "transform")
 
 
-def test_each_plugin_gets_a_worker_of_its_own_started_ahead():
+def test_each_plugin_gets_a_worker_of_its_own_started_ahead(outside):
     from sfa_gym.sandbox import process
 
-    with load_method(BAND_MEANS) as first:
+    with load_method(outside) as first:
         (spare,) = [p.pid for p, _ in process._spare.values()]
         assert spare != first._worker.process.pid
-    with load_method(BAND_MEANS) as second:
+    with load_method(outside) as second:
         # the spare serves the next plug-in: no plug-in code ran in it before
         assert second._worker.process.pid == spare
         assert second.fit(_views()).transform(_views()).shape == (6, 8 * 3)
@@ -304,66 +311,35 @@ RECORDER = """
 
 
 @pytest.mark.parametrize(("appearances", "indices"), [(1, None), (2, [0, 3, 5])])
-def test_an_isolated_method_is_fitted_on_views_made_in_its_worker(
-    tmp_path, monkeypatch, appearances, indices
-):
+def test_an_isolated_method_is_fitted_on_exactly_the_training_views(tmp_path, appearances, indices):
     import hashlib
 
-    from sfa_gym.protocols import features
+    from sfa_gym.features import fit_on_views, training_views
     from sfa_gym.rotation import Rotation
 
     panoramas = np.random.default_rng(1).integers(0, 256, (6, 8, 24, 3), dtype=np.uint8)
     rotation, picked = Rotation(step=4, window=12), None if indices is None else np.array(indices)
-    views = features.training_views(panoramas, rotation, appearances, picked)
-
-    def refuse(*args, **kwargs):
-        raise AssertionError("the evaluator made the training views")
-
-    monkeypatch.setattr(features, "training_views", refuse)
+    views = training_views(panoramas, rotation, appearances, picked)
     with load_method(_plugin(tmp_path, RECORDER)) as isolated:
-        features.fit_on_views(isolated, panoramas, rotation, appearances, picked)
+        fit_on_views(isolated, panoramas, rotation, appearances, picked)
         seen = isolated.get_params()
-    # the worker fitted on exactly the views the evaluator would have sent
     assert seen["shape"] == "x".join(map(str, views.shape))
     assert seen["digest"] == hashlib.sha256(views.tobytes()).hexdigest()
-    # in-process, the evaluator makes them (and here may not): the test can fail
-    inside = load_method(_plugin(tmp_path, RECORDER, "inside.py"), isolated=False)
-    with pytest.raises(AssertionError, match="the evaluator made the training views"):
-        features.fit_on_views(inside, panoramas, rotation, appearances, picked)
 
 
-def test_rotation_averages_of_an_isolated_method_are_taken_in_its_worker(monkeypatch):
+def test_rotation_averages_are_the_same_in_process_and_in_a_worker(tmp_path):
+    """The package's raw pixels in process (its fast path, every rotation at once) and the same
+    file from outside in a worker (``transform`` of every rotated view): the same averages."""
     from sfa_gym.features import rotation_averaged_features
 
     raw_pixels, args = ROOT / "baselines" / "raw_pixels.py", {"height": 2, "width": 6}
+    outside = tmp_path / "raw_pixels.py"
+    outside.write_bytes(raw_pixels.read_bytes())
     panoramas = np.random.default_rng(2).integers(0, 256, (5, 8, 24, 3), dtype=np.uint8)
-    inside = load_method_plugin(raw_pixels)(**args).fit(panoramas)
+    inside = load_method(raw_pixels, args).fit(panoramas)
+    assert isinstance(inside, InProcess) and callable(inside.transform_rotations)
     expected = rotation_averaged_features(inside, panoramas, step=1)
-
-    def refuse(*args, **kwargs):
-        raise AssertionError("every rotation's features crossed the pipe")
-
-    monkeypatch.setattr(IsolatedMethod, "transform_rotations", refuse)
-    with load_method(raw_pixels, args) as isolated:
-        isolated.fit(panoramas)
-        got = rotation_averaged_features(isolated, panoramas, step=1)
+    with load_method(outside, args) as isolated:
+        assert not hasattr(isolated, "transform_rotations")  # not part of the contract
+        got = rotation_averaged_features(isolated.fit(panoramas), panoramas, step=1)
     assert got.dtype == np.float64 and np.array_equal(got, expected)
-
-
-WRONG_ROTATIONS = """
-    capabilities = __import__("sfa_gym.plugins").plugins.Capabilities(transform_rotations=True)
-    def transform_rotations(self, panoramas, step):
-        return np.zeros((len(panoramas), 3, 2))
-    def look(self):
-        return [0.0]
-"""
-
-
-def test_an_isolated_method_with_too_few_rotations_is_refused(tmp_path):
-    from sfa_gym.features import rotation_averaged_features
-
-    with load_method(_plugin(tmp_path, WRONG_ROTATIONS)) as method:
-        method.fit(_views())
-        shape = r"hostile: .* must have shape \(2, 24, k\) with k >= 1, got \(2, 3, 2\)"
-        with pytest.raises(PluginError, match=shape):
-            rotation_averaged_features(method, _views(2), step=1)

@@ -152,9 +152,9 @@ def test_training_views_are_the_sequence_for_methods_without_the_shortcut():
     assert np.array_equal(fit_method(Recorder(), pans, rotation, 2).seen, views)
 
 
-def test_the_isolated_sfa_plugin_takes_the_appearances():
-    from sfa_gym.plugins import default_plugin_folder, load_method, load_method_plugin
+def test_the_loaded_sfa_plugin_takes_the_appearances():
     from sfa_gym.features import fit_method
+    from sfa_gym.plugins import default_plugin_folder, load_method, load_method_plugin
     from sfa_gym.rotation import Rotation
 
     pans = _places(6, 2)
