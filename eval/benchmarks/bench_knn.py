@@ -46,11 +46,11 @@ def main(args: Args) -> None:
     from sklearn.neighbors import NearestNeighbors
 
     from baselines.raw_pixels import RawPixels
+    from sfa_gym.features import view_features
     from sfa_gym.files import write_json_atomic
     from sfa_gym.leaderboard.tracks import default_track_folder, load_track
     from sfa_gym.localization.nearest import BoundedNeighbors
     from sfa_gym.protocols import outdoor
-    from sfa_gym.features import view_features
     from sfa_gym.recording.cache import RunCache
 
     track = load_track(default_track_folder() / "outdoor_appearance.json")

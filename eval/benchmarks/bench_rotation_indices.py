@@ -1,6 +1,6 @@
-"""Benchmark: raw pixels' features of the scored rotations, asked for by index (the capability
-``rotation_indices``) against every rotation computed and the scored ones picked (the path
-before it), in the same process.
+"""Benchmark: raw pixels' features of the scored rotations, asked for by index (the ``indices``
+of its fast path ``transform_rotations``) against every rotation computed and the scored ones
+picked (the path before it), in the same process.
 
 The outdoor tracks score 24 of the 120 rotations of a 60 x 600 panorama. Raw pixels shrink each
 view to 4 x 35 (600 / 35 is no whole factor, so every view is shrunk on its own,
@@ -23,10 +23,9 @@ from pathlib import Path
 import numpy as np
 import tyro
 
-from sfa_gym.capabilities import Capabilities
-from sfa_gym.files import write_json_atomic
-from sfa_gym.plugins import load_method
 from sfa_gym.features import fit_method, view_features
+from sfa_gym.files import write_json_atomic
+from sfa_gym.plugins import load_method_plugin
 from sfa_gym.rotation import Rotation, spread_indices
 
 
@@ -46,13 +45,13 @@ def main(args: Args) -> None:
     panoramas = rng.integers(0, 256, (args.panoramas, 60, 600, 3), dtype=np.uint8)
     rotation = Rotation(step=5)
     picked = spread_indices(rotation.n_views(600), 24)
-    raw = load_method("raw_pixels", isolated=False)
+    raw = load_method_plugin("raw_pixels")()
     indexed = fit_method(raw, panoramas[:2], rotation)
 
-    class EveryRotation(type(raw)):  # the same method without the capability: all, then picked
-        @property
-        def capabilities(self) -> Capabilities:
-            return Capabilities(regressor=self.regressor, transform_rotations=True)
+    class EveryRotation(type(raw)):  # the same method computing all rotations, then picking
+        def transform_rotations(self, panoramas, step, indices=None):
+            every = super().transform_rotations(panoramas, step)
+            return every if indices is None else every[:, indices]
 
     every = fit_method(EveryRotation(**raw.get_params()), panoramas[:2], rotation)
     seconds: dict[str, list[float]] = {"rotation indices": [], "every rotation, picked": []}

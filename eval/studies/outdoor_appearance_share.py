@@ -38,9 +38,9 @@ class Args:
 
 
 def main(args: Args) -> None:
+    from sfa_gym.features import view_features
     from sfa_gym.geometry import in_rectangle
     from sfa_gym.localization import mae, make_regressor, predict_locations
-    from sfa_gym.features import view_features
     from sfa_gym.protocols.outdoor import interleave
     from sfa_gym.recording.runfile import load_run
     from sfa_gym.rotation import Rotation, spread_indices

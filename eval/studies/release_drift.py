@@ -42,12 +42,12 @@ import numpy as np
 import tyro
 from tqdm.auto import tqdm
 
+from sfa_gym.features import fitted_features
 from sfa_gym.files import write_json_atomic
 from sfa_gym.intervals import mean_entry
 from sfa_gym.localization import fit_predict, mae, make_regressor
-from sfa_gym.plugins import load_method
+from sfa_gym.plugins import load_method_plugin
 from sfa_gym.protocols import trajectory
-from sfa_gym.features import fitted_features
 from sfa_gym.protocols.settings import SFASettings
 from sfa_gym.protocols.slow_features import SlowFeatureMethod
 from sfa_gym.recording.cache import RunCache, RunRequest
@@ -135,7 +135,7 @@ def run_world(
     started = time.perf_counter()
     data = trajectory.load(config, world_seed, source)
     sfa = SlowFeatureMethod(SFASettings(), CONFIG.rotation, progress=False)
-    fft = load_method("fft_magnitude", isolated=False)
+    fft = load_method_plugin("fft_magnitude")()
     return {
         "world_seed": world_seed,
         "sfa": method_scores(sfa, data),
