@@ -37,6 +37,7 @@ from sfa_gym.rotation import (
 __all__ = [
     "VIEWS_PER_BLOCK",
     "EmbeddedFeatures",
+    "averages_view_by_view",
     "fit_method",
     "fit_on_views",
     "fits_on_panoramas",
@@ -240,10 +241,8 @@ def rotation_averaged_features(
     fast = _fast(model, "transform_rotations")
     if fast:
         return np.asarray(fast(panoramas, step), np.float64).mean(1)
-    if window is None:
-        shape = getattr(model, "input_shape_", None)
-        window = panoramas.shape[2] if shape is None else int(shape[1])
-    if get_capabilities(model).rotation_invariant and window == panoramas.shape[2]:
+    window = _view_width(model, panoramas.shape[2], window)
+    if not averages_view_by_view(model, panoramas.shape[2], window):
         # a full-width rotated view has the panorama's own features (a column statistic): the
         # mean over the rotations is the panorama's features, computed once instead of W / step
         # times (equal up to the round-off of summing the columns in another order)
@@ -253,6 +252,25 @@ def rotation_averaged_features(
         views, _ = rotated_views(panorama, step=step, window=window)
         out.append(np.asarray(model.transform(views), np.float64).mean(axis=0))
     return np.stack(out) if out else np.empty((0, 0))
+
+
+def _view_width(model: Any, width: int, window: int | None) -> int:
+    """``window``, or the width of the views ``model`` was fitted on, or ``width``."""
+    if window is None:
+        shape = getattr(model, "input_shape_", None)
+        window = width if shape is None else int(shape[1])
+    return window
+
+
+def averages_view_by_view(model: Any, width: int, window: int | None = None) -> bool:
+    """Whether :func:`rotation_averaged_features` transforms each rotated view of a
+    ``width``-column panorama on its own: ``model`` has no fast path ``transform_rotations``
+    and is not ``rotation_invariant`` at full width (an :class:`EmbeddedFeatures`: its base)."""
+    if isinstance(model, EmbeddedFeatures):
+        return averages_view_by_view(model.base, width, window)
+    invariant = get_capabilities(model).rotation_invariant
+    full = _view_width(model, width, window) == width
+    return _fast(model, "transform_rotations") is None and not (invariant and full)
 
 
 class EmbeddedFeatures:

@@ -253,14 +253,10 @@ def _warn_per_rotation(model: Any, n_panoramas: int, width: int) -> None:
     each of ``n_panoramas`` field nodes: minutes per field for a slow ``transform``."""
     import warnings
 
-    from sfa_gym.capabilities import get_capabilities
-    from sfa_gym.features import EmbeddedFeatures
+    from sfa_gym.features import averages_view_by_view
 
-    fast = callable(getattr(model, "transform_rotations", None))  # the package's own models
-    if get_capabilities(model).rotation_invariant or fast or isinstance(model, EmbeddedFeatures):
-        return
     views = n_panoramas * width
-    if views > PER_ROTATION_WARNING:
+    if views > PER_ROTATION_WARNING and averages_view_by_view(model, width):
         name = getattr(model, "name", type(model).__name__)
         warnings.warn(
             f"{name} is not rotation_invariant, so its feature field transforms every "
