@@ -473,15 +473,13 @@ def describe(
     limit: float,
     hidden: Sequence[str | os.PathLike[str]] = (),
 ) -> dict[str, Any]:
-    """What a sweep records of the plug-in ``source`` with ``args`` (:meth:`Plugin.describe`,
-    made once to run its factory's checks), read here or, for a file from outside, in a worker
-    within ``limit`` seconds (:func:`~sfa_gym.sandbox.describe_plugin`)."""
+    """What a sweep records of the plug-in ``source`` with ``args`` (:meth:`Plugin.describe`):
+    read here (a built-in made once, for its factory's checks; under IN_PROCESS not made, so
+    that its side effects are its tasks') or in a worker within ``limit`` s (describe_plugin)."""
     from sfa_gym.sandbox import describe_plugin, isolation
 
     where = isolation(**{kind: source})
     if where in ("built-in", "in-process"):
-        # not made in process (IN_PROCESS): a plug-in standing for a failure of the evaluator
-        # (a signal, a crash) acts in its tasks only
         return load_plugin(source, kind).describe(args, make=where == "built-in")
     return describe_plugin(source, kind, args, limit=limit, hidden=hidden)
 
